@@ -1,0 +1,75 @@
+"""Exception hierarchy of biplan.
+
+Every invalid parameter raises :class:`ConfigError` (a :class:`ValueError`) that names the
+parameter, its value and the valid range, before any solve starts. A solve that does not
+converge returns a status; with ``throw=True`` it raises :class:`ConvergenceError` instead.
+"""
+
+from __future__ import annotations
+
+import math
+from typing import Any
+
+__all__ = ["BiplanError", "ConfigError", "ConvergenceError", "check_finite", "check_range"]
+
+
+class BiplanError(Exception):
+    """Base class of every biplan error."""
+
+
+class ConfigError(BiplanError, ValueError):
+    """An input parameter is invalid.
+
+    Parameters
+    ----------
+    parameter : str
+        Name of the offending parameter (dotted path for nested config entries).
+    value : object
+        The value that was given.
+    valid : str
+        Human-readable description of the valid range.
+    """
+
+    def __init__(self, parameter: str, value: Any, valid: str) -> None:
+        self.parameter = parameter
+        self.value = value
+        self.valid = valid
+        super().__init__(f"invalid {parameter} = {value!r}: must be {valid}")
+
+
+class ConvergenceError(BiplanError, RuntimeError):
+    """A solver did not converge (raised only with ``throw=True``)."""
+
+
+def check_finite(name: str, value: float) -> float:
+    """Return ``float(value)`` or raise :class:`ConfigError` if it is not a finite number."""
+    try:
+        x = float(value)
+    except (TypeError, ValueError):
+        raise ConfigError(name, value, "a finite real number") from None
+    if not math.isfinite(x):
+        raise ConfigError(name, value, "a finite real number")
+    return x
+
+
+def check_range(
+    name: str,
+    value: float,
+    *,
+    low: float | None = None,
+    high: float | None = None,
+    low_open: bool = True,
+    high_open: bool = True,
+) -> float:
+    """Check that ``value`` is finite and inside the given (open or closed) interval."""
+    x = check_finite(name, value)
+    lo_txt = "(" if low_open else "["
+    hi_txt = ")" if high_open else "]"
+    interval = (
+        f"in {lo_txt}{'-inf' if low is None else low}, {'inf' if high is None else high}{hi_txt}"
+    )
+    if low is not None and (x < low or (low_open and x == low)):
+        raise ConfigError(name, value, interval)
+    if high is not None and (x > high or (high_open and x == high)):
+        raise ConfigError(name, value, interval)
+    return x

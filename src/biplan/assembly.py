@@ -1,0 +1,431 @@
+"""Assembly of the constrained BiPlan potential of a tube (main Eqs. aug, mft_energy_assembly).
+
+One JAX Lagrangian, written once::
+
+    L(q, λ, λ_∂, μ) = Π(q) − F z_p(q) + λᵀ g(q) − λ_∂ᵀ w_∂(q) + μ d (z_p(q) − U)
+
+Π sums the exact field energies of every helical field and every connector field; g are the
+guides (2 per module); w_∂ the contact gaps (helical ends, connector field ends; MODEL C1);
+z_p the axial displacement of the load point (MODEL W1); d ∈ {0, 1} switches displacement
+control on. The equilibrium residual (MODEL §11) is::
+
+    r = [∇_q L,  g(q),  φ_SFB(w_∂(q), λ_∂),  d (z_p − U) + (1 − d) μ]
+
+with φ_SFB(w, λ) = √(w² + λ² + ε²) − (w + λ) (SI Eq. sfb). Gradients, Hessians and Jacobians
+come from autodiff of these functions; each is ``jit``-compiled once per tube *layout*
+(:class:`~biplan.geometry.TubeLayout`), with geometry and law numbers passed as traced
+parameters, so sweeping R, l, β or law coefficients never recompiles.
+"""
+
+from __future__ import annotations
+
+import functools
+from dataclasses import dataclass
+from typing import Any, NamedTuple
+
+import numpy as np
+
+from biplan._errors import ConfigError, check_finite
+from biplan._jax import jax, jnp
+from biplan.geometry import chain
+from biplan.geometry.tube import Tube, TubeLayout
+from biplan.laws import _kernels as law_kernels
+from biplan.options import ContactForm, ModelOptions
+
+__all__ = ["Load", "Model", "ModelParams", "TubeLayout", "kernels"]
+
+Array = Any
+
+
+class ModelParams(NamedTuple):
+    """Traced parameters of a model (a JAX pytree)."""
+
+    geometry: chain.GeometryParams
+    helical: Array  # (N, 5) law coefficients (k1, k2, k3, w1, w2)
+    circular: Array  # (Nc, 5)
+    smoothing: Array  # ε of the SFB function
+    smooth_min_width: Array  # τ of ContactForm.MINIMUM
+
+
+class Load(NamedTuple):
+    """External loading: end force F [N], or prescribed load-point displacement U [mm].
+
+    Use :meth:`force` or :meth:`displacement` to build one.
+    """
+
+    force: Array
+    displacement: Array
+    displacement_control: Array  # 0.0 or 1.0
+
+    @staticmethod
+    def of_force(force: float) -> Load:
+        """Dead axial end force F [N] (force control)."""
+        return Load(check_finite("force", force), 0.0, 0.0)
+
+    @staticmethod
+    def of_displacement(displacement: float) -> Load:
+        """Prescribed axial displacement U [mm] of the load point (displacement control)."""
+        return Load(0.0, check_finite("displacement", displacement), 1.0)
+
+    @staticmethod
+    def of_pressure(pressure: float, radius: float) -> Load:
+        """Internal pressure p [MPa = N/mm²] on a closed tube: end force p π R² [N]."""
+        p = check_finite("pressure", pressure)
+        return Load(p * np.pi * float(radius) ** 2, 0.0, 0.0)
+
+    @property
+    def is_displacement_controlled(self) -> bool:
+        return bool(float(self.displacement_control) > 0.5)
+
+
+def _law_rows(laws: tuple) -> Array:  # type: ignore[type-arg]
+    if not laws:
+        return jnp.zeros((0, 5))
+    return jnp.asarray([law.coefficients for law in laws], dtype=jnp.float64)
+
+
+def _coeffs(row: Array) -> law_kernels.Coefficients:
+    return (row[0], row[1], row[2], row[3], row[4])
+
+
+def sfb(w: Array, lam: Array, eps: Array) -> Array:
+    """Smoothed Fischer–Burmeister function (SI Eq. sfb)."""
+    return jnp.sqrt(w**2 + lam**2 + eps**2) - (w + lam)
+
+
+# --- pure functions of (layout, params, q) -------------------------------------------------
+def _kin(layout: TubeLayout, p: ModelParams, q: Array) -> chain.Kinematics:
+    return chain.kinematics(layout, p.geometry, q)
+
+
+def _energies(layout: TubeLayout, p: ModelParams, kin: chain.Kinematics) -> tuple[Array, Array]:
+    w = kin.helical
+    helical = law_kernels.field_energy(w[:, 0], w[:, 1], kin.helical_length, _coeffs(p.helical.T))
+    if layout.n_connectors == 0:
+        return helical, jnp.zeros((0,))
+    t = chain.tables(layout)
+    per_field = law_kernels.field_energy(
+        kin.field_start, kin.field_end, kin.field_length, _coeffs(p.circular[t.field_conn].T)
+    )
+    circ = jax.ops.segment_sum(per_field, t.field_conn, num_segments=layout.n_connectors)
+    return helical, circ
+
+
+def fold_energies(layout: TubeLayout, p: ModelParams, q: Array) -> tuple[Array, Array]:
+    """Strain energy [N·mm] of every helical fold (N,) and every circular fold (Nc,)."""
+    return _energies(layout, p, _kin(layout, p, q))
+
+
+def energy(layout: TubeLayout, p: ModelParams, q: Array) -> Array:
+    """Total strain energy Π(q) [N·mm] (main Eq. mft_energy_assembly)."""
+    helical, circ = fold_energies(layout, p, q)
+    return helical.sum() + circ.sum()
+
+
+def guide_values(layout: TubeLayout, p: ModelParams, q: Array) -> Array:
+    """Guide constraints g(q) [mm], (2N,) (SI Eq. 11)."""
+    return _kin(layout, p, q).guides
+
+
+def _gaps(layout: TubeLayout, p: ModelParams, kin: chain.Kinematics) -> Array:
+    gaps = [kin.helical.reshape(-1)]
+    if layout.n_connectors:
+        t = chain.tables(layout)
+        pts = kin.point_w[t.contact_pt]
+        if layout.options.contact is ContactForm.MINIMUM:
+            tau = p.smooth_min_width
+            for c in range(layout.n_connectors):
+                sel = pts[np.flatnonzero(t.contact_conn == c)]
+                gaps.append((-tau * jax.nn.logsumexp(-sel / tau))[None])
+        else:
+            gaps.append(pts)
+    return jnp.concatenate(gaps)
+
+
+def contact_gaps(layout: TubeLayout, p: ModelParams, q: Array) -> Array:
+    """Contact gaps w_∂(q) [mm]: helical (w0, wa) per module, then connector points (MODEL C1)."""
+    return _gaps(layout, p, _kin(layout, p, q))
+
+
+def _reference_load_point(layout: TubeLayout, p: ModelParams) -> chain.Kinematics:
+    return _kin(layout, p, jnp.zeros(layout.n_coordinates))
+
+
+def load_height(layout: TubeLayout, p: ModelParams, q: Array) -> Array:
+    """Axial displacement z_p(q) [mm] of the load point (MODEL CHOICE W1)."""
+    kin_ref = jax.lax.stop_gradient(_reference_load_point(layout, p))
+    return chain.load_height(layout, p.geometry, _kin(layout, p, q), kin_ref)
+
+
+def lagrangian(
+    layout: TubeLayout, p: ModelParams, z: Array, load: Load, kin_ref: chain.Kinematics | None = None
+) -> Array:
+    """L(q, λ, λ_∂, μ) of the module docstring [N·mm]."""
+    q, lam, lam_c, mu = _split(layout, z)
+    if kin_ref is None:
+        kin_ref = _reference_load_point(layout, p)
+    kin = _kin(layout, p, q)
+    zp = chain.load_height(layout, p.geometry, kin, kin_ref)
+    helical, circ = _energies(layout, p, kin)
+    return (
+        helical.sum()
+        + circ.sum()
+        - load.force * zp
+        + lam @ kin.guides
+        - lam_c @ _gaps(layout, p, kin)
+        + mu * load.displacement_control * (zp - load.displacement)
+    )
+
+
+def residual(layout: TubeLayout, p: ModelParams, z: Array, load: Load) -> Array:
+    """KKT residual r(z) (MODEL §11) for z = [q, λ, λ_∂, μ]."""
+    q, _, lam_c, mu = _split(layout, z)
+    kin_ref = jax.lax.stop_gradient(_reference_load_point(layout, p))
+    rest = z[layout.n_coordinates :]
+    grad_q = jax.grad(lambda qq: lagrangian(layout, p, jnp.concatenate([qq, rest]), load, kin_ref))(q)
+    kin = _kin(layout, p, q)
+    zp = chain.load_height(layout, p.geometry, kin, kin_ref)
+    d = load.displacement_control
+    return jnp.concatenate(
+        [
+            grad_q,
+            kin.guides,
+            sfb(_gaps(layout, p, kin), lam_c, p.smoothing),
+            (d * (zp - load.displacement) + (1.0 - d) * mu)[None],
+        ]
+    )
+
+
+def _sizes(layout: TubeLayout) -> tuple[int, int, int]:
+    nq = layout.n_coordinates
+    ng = 2 * layout.n_modules
+    if layout.options.contact is ContactForm.MINIMUM:
+        nc = 2 * layout.n_modules + layout.n_connectors
+    else:
+        nc = 2 * layout.n_modules + len(chain.tables(layout).contact_pt)
+    return nq, ng, nc
+
+
+def _split(layout: TubeLayout, z: Array) -> tuple[Array, Array, Array, Array]:
+    nq, ng, nc = _sizes(layout)
+    return z[:nq], z[nq : nq + ng], z[nq + ng : nq + ng + nc], z[nq + ng + nc]
+
+
+@dataclass(frozen=True)
+class Kernels:
+    """The jitted functions of one layout (all take ``params`` first)."""
+
+    energy: Any
+    fold_energies: Any
+    gradient: Any
+    hessian: Any
+    guides: Any
+    guide_jacobian: Any
+    contact_gaps: Any
+    contact_jacobian: Any
+    residual: Any
+    jacobian: Any
+    lagrangian_hessian: Any
+    endpoint: Any
+    load_height: Any
+    load_gradient: Any
+    kinematics: Any
+
+
+@functools.lru_cache(maxsize=64)
+def kernels(layout: TubeLayout) -> Kernels:
+    """Build (once per layout) the jitted kernels of a tube layout."""
+    L = layout  # noqa: N806
+
+    def lag_hess(p: ModelParams, z: Array, load: Load) -> Array:
+        nq = L.n_coordinates
+        kin_ref = _reference_load_point(L, p)
+        return jax.hessian(
+            lambda qq: lagrangian(L, p, jnp.concatenate([qq, z[nq:]]), load, kin_ref)
+        )(z[:nq])
+
+    def res(p: ModelParams, z: Array, load: Load) -> Array:
+        return residual(L, p, z, load)
+
+    def lh(p: ModelParams, q: Array) -> Array:
+        return load_height(L, p, q)
+
+    def kin(p: ModelParams, q: Array) -> chain.Kinematics:
+        return _kin(L, p, q)
+
+    return Kernels(
+        energy=jax.jit(functools.partial(energy, L)),
+        fold_energies=jax.jit(functools.partial(fold_energies, L)),
+        gradient=jax.jit(jax.grad(functools.partial(energy, L), argnums=1)),
+        hessian=jax.jit(jax.hessian(functools.partial(energy, L), argnums=1)),
+        guides=jax.jit(functools.partial(guide_values, L)),
+        guide_jacobian=jax.jit(jax.jacfwd(functools.partial(guide_values, L), argnums=1)),
+        contact_gaps=jax.jit(functools.partial(contact_gaps, L)),
+        contact_jacobian=jax.jit(jax.jacfwd(functools.partial(contact_gaps, L), argnums=1)),
+        residual=jax.jit(res),
+        jacobian=jax.jit(jax.jacfwd(res, argnums=1)),
+        lagrangian_hessian=jax.jit(lag_hess),
+        endpoint=jax.jit(lambda p, q: chain.endpoint(L, p.geometry, q)),
+        load_height=jax.jit(lh),
+        load_gradient=jax.jit(jax.grad(lh, argnums=1)),
+        kinematics=jax.jit(kin),
+    )
+
+
+class Model:
+    """A tube with its model readings, ready to evaluate: energy, constraints, residual.
+
+    Parameters
+    ----------
+    tube : Tube
+        Geometry, topology and laws.
+    options : ModelOptions, optional
+        Readings to use instead of ``tube.options``.
+
+    Notes
+    -----
+    The model is immutable; use :meth:`with_options` for another reading. Unknowns of the
+    equilibrium system are packed as ``z = [q, λ, λ_∂, μ]`` (see :meth:`split`).
+    """
+
+    def __init__(self, tube: Tube, options: ModelOptions | None = None) -> None:
+        if not isinstance(tube, Tube):
+            raise ConfigError("tube", tube, "a biplan Tube")
+        if options is not None:
+            from dataclasses import replace
+
+            tube = replace(tube, options=options)
+        self.tube = tube
+        self.layout = tube.layout
+        dev = tube.development
+        geom = chain.GeometryParams(
+            jnp.asarray(dev.radius), jnp.asarray(dev.pitch), jnp.asarray(dev.beta)
+        )
+        self.params = ModelParams(
+            geom,
+            _law_rows(tube.helical_laws),
+            _law_rows(tube.circular_laws),
+            jnp.asarray(tube.options.contact_smoothing),
+            jnp.asarray(tube.options.smooth_min_width),
+        )
+        self.kernels = kernels(self.layout)
+        self.n_coordinates, self.n_guides, self.n_contacts = _sizes(self.layout)
+        self.n_unknowns = self.n_coordinates + self.n_guides + self.n_contacts + 1
+
+    @property
+    def options(self) -> ModelOptions:
+        return self.tube.options
+
+    def with_options(self, **changes: Any) -> Model:
+        """A model of the same tube under other readings."""
+        return Model(self.tube.with_options(**changes))
+
+    def __repr__(self) -> str:
+        return (
+            f"Model(N={self.layout.n_modules}, connectors="
+            f"{[c.kind for c in self.layout.connectors]}, n_q={self.n_coordinates}, "
+            f"n_g={self.n_guides}, n_c={self.n_contacts})"
+        )
+
+    # --- packing --------------------------------------------------------------------------
+    def split(self, z: Array) -> tuple[np.ndarray, np.ndarray, np.ndarray, float]:
+        """(q, λ, λ_∂, μ) from a packed unknown vector."""
+        q, lam, lam_c, mu = _split(self.layout, np.asarray(z))
+        return np.asarray(q), np.asarray(lam), np.asarray(lam_c), float(mu)
+
+    def pack(self, q: Array, lam: Array | None = None, lam_c: Array | None = None, mu: float = 0.0) -> np.ndarray:
+        """Packed z = [q, λ, λ_∂, μ] (missing multipliers are zero)."""
+        q = np.asarray(q, dtype=float)
+        if q.shape != (self.n_coordinates,):
+            raise ConfigError("q", q.shape, f"shape ({self.n_coordinates},)")
+        lam = np.zeros(self.n_guides) if lam is None else np.asarray(lam, dtype=float)
+        lam_c = np.zeros(self.n_contacts) if lam_c is None else np.asarray(lam_c, dtype=float)
+        return np.concatenate([q, lam, lam_c, [mu]])
+
+    def zeros(self) -> np.ndarray:
+        """The reference coordinates q = 0."""
+        return np.zeros(self.n_coordinates)
+
+    # --- evaluation (all NumPy out) -------------------------------------------------------
+    def _q(self, q: Array) -> Array:
+        return jnp.asarray(q, dtype=jnp.float64)
+
+    def energy(self, q: Array) -> float:
+        """Π(q) [N·mm]."""
+        return float(self.kernels.energy(self.params, self._q(q)))
+
+    def fold_energies(self, q: Array) -> tuple[np.ndarray, np.ndarray]:
+        """Energy [N·mm] of each helical (N,) and circular (Nc,) fold."""
+        h, c = self.kernels.fold_energies(self.params, self._q(q))
+        return np.asarray(h), np.asarray(c)
+
+    def gradient(self, q: Array) -> np.ndarray:
+        """∇Π(q) [N or N·mm per coordinate]."""
+        return np.asarray(self.kernels.gradient(self.params, self._q(q)))
+
+    def hessian(self, q: Array) -> np.ndarray:
+        """∇²Π(q)."""
+        return np.asarray(self.kernels.hessian(self.params, self._q(q)))
+
+    def constraints(self, q: Array) -> np.ndarray:
+        """Guide values g(q) [mm], (2N,)."""
+        return np.asarray(self.kernels.guides(self.params, self._q(q)))
+
+    def constraint_jacobian(self, q: Array) -> np.ndarray:
+        """∂g/∂q, (2N, n_q)."""
+        return np.asarray(self.kernels.guide_jacobian(self.params, self._q(q)))
+
+    def contact_gaps(self, q: Array) -> np.ndarray:
+        """Contact gaps w_∂(q) [mm], (n_c,)."""
+        return np.asarray(self.kernels.contact_gaps(self.params, self._q(q)))
+
+    def contact_jacobian(self, q: Array) -> np.ndarray:
+        """∂w_∂/∂q, (n_c, n_q)."""
+        return np.asarray(self.kernels.contact_jacobian(self.params, self._q(q)))
+
+    def residual(self, z: Array, load: Load) -> np.ndarray:
+        """KKT residual r(z) for the given load."""
+        return np.asarray(self.kernels.residual(self.params, jnp.asarray(z), load))
+
+    def jacobian(self, z: Array, load: Load) -> np.ndarray:
+        """∂r/∂z, (n_z, n_z)."""
+        return np.asarray(self.kernels.jacobian(self.params, jnp.asarray(z), load))
+
+    def lagrangian_hessian(self, z: Array, load: Load) -> np.ndarray:
+        """∇²_q L at z: energy, load and multiplier curvature (MODEL CHOICE S2)."""
+        return np.asarray(self.kernels.lagrangian_hessian(self.params, jnp.asarray(z), load))
+
+    def endpoint(self, q: Array) -> chain.Endpoint:
+        """(u_z [mm], u_r [mm], θ [rad]) of the free end relative to q = 0 (MODEL R2)."""
+        e = self.kernels.endpoint(self.params, self._q(q))
+        return chain.Endpoint(float(e.u_z), float(e.u_r), float(e.theta))
+
+    def load_displacement(self, q: Array) -> float:
+        """Axial displacement z_p [mm] of the load point (work conjugate of F)."""
+        return float(self.kernels.load_height(self.params, self._q(q)))
+
+    def load_gradient(self, q: Array) -> np.ndarray:
+        """∂z_p/∂q."""
+        return np.asarray(self.kernels.load_gradient(self.params, self._q(q)))
+
+    def kinematics(self, q: Array) -> chain.Kinematics:
+        """All kinematic quantities at q (NumPy arrays): nodes, guides, elongations, frames."""
+        kin = self.kernels.kinematics(self.params, self._q(q))
+        return chain.Kinematics(*(np.asarray(v) for v in kin))
+
+    def helical_boundary(self, q: Array) -> np.ndarray:
+        """(w0, wa) [mm] of each helical fold, (N, 2)."""
+        return self.kinematics(q).helical
+
+    def circular_fields(self, q: Array) -> list[tuple[np.ndarray, np.ndarray, np.ndarray]]:
+        """Per circular fold: (w_start, w_end, length) of its fields [mm]."""
+        kin = self.kinematics(q)
+        conn = chain.tables(self.layout).field_conn
+        return [
+            (kin.field_start[conn == c], kin.field_end[conn == c], kin.field_length[conn == c])
+            for c in range(self.layout.n_connectors)
+        ]
+
+    def global_nodes(self, q: Array) -> np.ndarray:
+        """Deformed nodes in the global development plane, (N, 7, 2) [mm]."""
+        return np.asarray(chain.global_nodes(self.kernels.kinematics(self.params, self._q(q))))

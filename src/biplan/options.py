@@ -1,0 +1,179 @@
+"""Model readings: every place MODEL.md marks CHOICE, as one frozen options object.
+
+The paper is ambiguous in several places; each reading is an enum member here so that users
+can compare them (``docs/fidelity.md``). Defaults follow MODEL.md unless ``docs/`` says why not.
+
+==============  ===========================================  ==================================
+MODEL CHOICE    field                                         default
+==============  ===========================================  ==================================
+L1              ``transition_reading``                        breakpoints are absolute
+K3              ``mirror``                                    reflection z → l − z
+K4              ``first_module``                              standard (S) module at the base
+C1              ``contact``                                   one condition per field endpoint
+R1              ``chain_offset``                              exact seam gap γ
+R2              ``endpoint``                                  free-end edge, least squares
+W1              ``load_point``                                centroid of the free-end edge
+S1              ``weak_contacts_active``                      False (conservative)
+==============  ===========================================  ==================================
+"""
+
+from __future__ import annotations
+
+import enum
+from dataclasses import dataclass, fields, replace
+from typing import Any
+
+from biplan._errors import ConfigError, check_range
+from biplan.laws.trilinear import TransitionReading
+
+__all__ = [
+    "ChainOffset",
+    "ContactForm",
+    "EndpointDefinition",
+    "LoadPoint",
+    "MirrorConvention",
+    "ModelOptions",
+    "ModuleKind",
+    "TransitionReading",
+]
+
+
+class ModuleKind(enum.Enum):
+    """Standard (S) or mirrored (M) module (MODEL §5)."""
+
+    STANDARD = "standard"
+    MIRRORED = "mirrored"
+
+    def other(self) -> ModuleKind:
+        """The opposite kind (modules alternate S, M, S, …)."""
+        return ModuleKind.MIRRORED if self is ModuleKind.STANDARD else ModuleKind.STANDARD
+
+
+class MirrorConvention(enum.Enum):
+    """How the mirrored module is obtained from the standard one (MODEL CHOICE K3).
+
+    ``REFLECTION``: mirror about z = l/2 (helical folds form a zig-zag; every open helical fold
+    tilts the tube the same way). ``POINT``: 180° rotation (the SI's literal n_sp → −n_sp,
+    n_c → −n_c; a continuous helix).
+    """
+
+    REFLECTION = "reflection"
+    POINT = "point"
+
+
+class ContactForm(enum.Enum):
+    """Contact on circular connectors (MODEL CHOICE C1).
+
+    ``PER_ENDPOINT``: one smoothed Fischer–Burmeister condition per field endpoint.
+    ``MINIMUM``: the SI's single condition on the smallest boundary elongation, with a
+    smooth minimum of width ``smooth_min_width``.
+    """
+
+    PER_ENDPOINT = "per_endpoint"
+    MINIMUM = "minimum"
+
+
+class ChainOffset(enum.Enum):
+    """Translation between neighbouring module frames (MODEL CHOICE R1).
+
+    ``EXACT``: the seam gap equals γ exactly (consistent with the connector energy).
+    ``PAPER``: the SI's literal a_m = Δ_m [1, tan θ_m], Δ_m = γ_m − u_m + l.
+    """
+
+    EXACT = "exact"
+    PAPER = "paper"
+
+
+class EndpointDefinition(enum.Enum):
+    """What "the endpoint" is (MODEL CHOICE R2).
+
+    ``EDGE``: length-weighted mean and least-squares tilt of the free-end edge.
+    ``SEAM_NODE``: the seam point of the free-end edge, slope of the element holding it.
+    """
+
+    EDGE = "edge"
+    SEAM_NODE = "seam_node"
+
+
+class LoadPoint(enum.Enum):
+    """Where the dead axial end force acts (MODEL CHOICE W1).
+
+    ``CENTROID``: centroid of the free-end edge (pneumatic end-cap resultant).
+    ``SEAM``: the seam point of the free-end edge. ``SPLIT``: the end edge's split point
+    s = H1 (an eccentric point load).
+    """
+
+    CENTROID = "centroid"
+    SEAM = "seam"
+    SPLIT = "split"
+
+
+_ENUMS: dict[str, type[enum.Enum]] = {
+    "transition_reading": TransitionReading,
+    "mirror": MirrorConvention,
+    "first_module": ModuleKind,
+    "contact": ContactForm,
+    "chain_offset": ChainOffset,
+    "endpoint": EndpointDefinition,
+    "load_point": LoadPoint,
+}
+
+
+@dataclass(frozen=True)
+class ModelOptions:
+    """The selectable readings of the BiPlan model (see module docstring for the table).
+
+    Parameters
+    ----------
+    transition_reading, mirror, first_module, contact, chain_offset, endpoint, load_point
+        Enum members or their string values.
+    weak_contacts_active : bool
+        Treat contacts with λ_∂ ≈ 0 and w ≈ 0 as active in the stability test (S1).
+    contact_smoothing : float
+        ε of the smoothed Fischer–Burmeister function (SI Eq. sfb), > 0.
+    smooth_min_width : float
+        τ [mm] of the smooth minimum used by ``ContactForm.MINIMUM``, > 0.
+    """
+
+    transition_reading: TransitionReading = TransitionReading.ABSOLUTE
+    mirror: MirrorConvention = MirrorConvention.REFLECTION
+    first_module: ModuleKind = ModuleKind.STANDARD
+    contact: ContactForm = ContactForm.PER_ENDPOINT
+    chain_offset: ChainOffset = ChainOffset.EXACT
+    endpoint: EndpointDefinition = EndpointDefinition.EDGE
+    load_point: LoadPoint = LoadPoint.CENTROID
+    weak_contacts_active: bool = False
+    contact_smoothing: float = 1e-6
+    smooth_min_width: float = 1e-3
+
+    def __post_init__(self) -> None:
+        for name, cls in _ENUMS.items():
+            value = getattr(self, name)
+            if not isinstance(value, cls):
+                try:
+                    object.__setattr__(self, name, cls(value))
+                except ValueError:
+                    valid = ", ".join(repr(m.value) for m in cls)  # type: ignore[attr-defined]
+                    raise ConfigError(f"options.{name}", value, f"one of {valid}") from None
+        if not isinstance(self.weak_contacts_active, bool):
+            raise ConfigError("options.weak_contacts_active", self.weak_contacts_active, "a bool")
+        for name in ("contact_smoothing", "smooth_min_width"):
+            object.__setattr__(
+                self, name, check_range(f"options.{name}", getattr(self, name), low=0.0, high=1.0)
+            )
+
+    def with_(self, **changes: Any) -> ModelOptions:
+        """Return a copy with some readings changed (validated)."""
+        names = {f.name for f in fields(self)}
+        for key in changes:
+            if key not in names:
+                raise ConfigError("options", key, f"one of {sorted(names)}")
+        return replace(self, **changes)
+
+    def to_dict(self) -> dict[str, Any]:
+        """Plain-value dict (enum values as strings), e.g. for result metadata."""
+        out: dict[str, Any] = {}
+        for f in fields(self):
+            v = getattr(self, f.name)
+            out[f.name] = v.value if isinstance(v, enum.Enum) else v
+        return out
