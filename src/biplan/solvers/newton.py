@@ -77,93 +77,109 @@ class Newton:
 
 
 class LoopState(NamedTuple):
-    z: Array
-    it: Array
+    z: Array  # accepted iterate
+    r: Array  # residual at z
+    f: Array  # merit ½‖r‖² at z
+    jac: Array  # Jacobian at z
+    dz: Array  # current search direction
+    slope: Array  # r·J dz (directional derivative of the merit)
+    alpha: Array  # trial step length
+    lm: Array  # True while trying Levenberg–Marquardt steps
+    damping: Array  # LM damping
+    steps: Array  # accepted steps
+    evals: Array  # residual evaluations
     status: Array  # -1 running, else Status value
-    damping: Array
-    rnorm: Array
 
 
 def newton_loop(layout: TubeLayout, params: Any, z0: Array, load: Load, settings: Array) -> LoopState:
-    """Pure (jit/vmap-able) Newton iteration; see module docstring."""
+    """Pure (jit/vmap-able) globalised Newton iteration.
+
+    Written as a state machine with a single residual and a single Jacobian evaluation site,
+    so that the compiled graph is small: each pass evaluates the trial point z + α dz; an
+    accepted trial becomes the iterate and gets a fresh Newton direction, a rejected one halves
+    α (Armijo backtracking) and, once α is exhausted, switches to Levenberg–Marquardt steps on
+    ½‖r‖² with growing damping.
+    """
     k = kernels(layout)
     atol, max_steps, max_bt, c_arm = settings[0], settings[1], settings[2], settings[3]
+    alpha_min = 0.5**max_bt
+    n = z0.shape[0]
 
-    def res(z: Array) -> Array:
-        return k.residual(params, z, load)
-
-    def merit(z: Array) -> Array:
-        r = res(z)
-        f = 0.5 * r @ r
-        return jnp.where(jnp.isfinite(f), f, jnp.inf)
+    def lm_direction(jac: Array, r: Array, damping: Array) -> Array:
+        jtj = jac.T @ jac
+        step = jnp.linalg.solve(jtj + damping * jnp.diag(jnp.diag(jtj) + 1e-12), -(jac.T @ r))
+        return jnp.where(jnp.isfinite(step), step, 0.0)
 
     def body(s: LoopState) -> LoopState:
-        r = res(s.z)
-        rnorm = jnp.max(jnp.abs(r))
-        done = rnorm < atol
-        J = k.jacobian(params, s.z, load)
-        f = 0.5 * r @ r
-        dz = jnp.linalg.solve(J, -r)
-        ok_dir = jnp.all(jnp.isfinite(dz))
-        dz = jnp.where(ok_dir, dz, 0.0)
-        slope = r @ (J @ dz)  # directional derivative of f, = −2f for an exact Newton step
+        zt = s.z + s.alpha * s.dz
+        rt = k.residual(params, zt, load)
+        ft = 0.5 * rt @ rt
+        ft = jnp.where(jnp.isfinite(ft), ft, jnp.inf)
+        armijo = ft <= s.f + c_arm * s.alpha * s.slope
+        accept = jnp.where(s.lm, ft < s.f, armijo) | ~jnp.isfinite(s.f)
+        accept = accept & jnp.isfinite(ft)
+        jt = k.jacobian(params, zt, load)
 
-        def bt_cond(c: tuple) -> Array:
-            alpha, n, fn = c
-            return (fn > f + c_arm * alpha * slope) & (n < max_bt)
+        # accepted: new iterate and Newton direction
+        dz_n = jnp.linalg.solve(jt, -rt)
+        newton_ok = jnp.all(jnp.isfinite(dz_n))
+        dz_a = jnp.where(newton_ok, dz_n, lm_direction(jt, rt, s.damping))
+        slope_a = rt @ (jt @ dz_a)
+        converged = jnp.max(jnp.abs(rt)) < atol
 
-        def bt_body(c: tuple) -> tuple:
-            alpha, n, _ = c
-            alpha = 0.5 * alpha
-            return alpha, n + 1, merit(s.z + alpha * dz)
+        # rejected: backtrack, then Levenberg–Marquardt with growing damping
+        to_lm = s.lm | (s.alpha * 0.5 < alpha_min)
+        damping_r = jnp.where(s.lm, s.damping * 10.0, s.damping)
+        dz_r = jnp.where(to_lm, lm_direction(s.jac, s.r, damping_r), s.dz)
+        alpha_r = jnp.where(to_lm, 1.0, 0.5 * s.alpha)
 
-        alpha, _, f_new = jax.lax.while_loop(bt_cond, bt_body, (1.0, 0, merit(s.z + dz)))
-        newton_ok = ok_dir & (f_new <= f + c_arm * alpha * slope) & (slope < 0)
-
-        def lm(_: Any) -> tuple:
-            jtj = J.T @ J
-            g = J.T @ r
-            scale = jnp.diag(jtj) + 1e-12
-            step = jnp.linalg.solve(jtj + s.damping * jnp.diag(scale), -g)
-            step = jnp.where(jnp.isfinite(step), step, 0.0)
-            f_lm = merit(s.z + step)
-            better = f_lm < f
-            return step, better
-
-        def newton(_: Any) -> tuple:
-            return alpha * dz, jnp.asarray(True)
-
-        step, accepted = jax.lax.cond(newton_ok, newton, lm, None)
-        damping = jnp.where(
-            newton_ok, jnp.maximum(s.damping * 0.3, 1e-10), jnp.where(accepted, s.damping * 0.3, s.damping * 10.0)
-        )
-        z_new = jnp.where(accepted & ~done, s.z + step, s.z)
-        finite = jnp.isfinite(rnorm)
+        z = jnp.where(accept, zt, s.z)
+        steps = s.steps + jnp.where(accept & jnp.isfinite(s.f), 1, 0)
         status = jnp.where(
-            done,
+            accept & converged,
             Status.CONVERGED.value,
             jnp.where(
-                ~finite,
-                Status.NONFINITE.value,
-                jnp.where(~accepted & (damping > 1e12), Status.LINE_SEARCH_FAILED.value, -1),
+                ~accept & (damping_r > 1e12),
+                Status.LINE_SEARCH_FAILED.value,
+                jnp.where(steps >= max_steps, Status.MAX_STEPS.value, -1),
             ),
         )
-        return LoopState(z_new, s.it + jnp.where(done, 0, 1), status, damping, rnorm)
+        return LoopState(
+            z=z,
+            r=jnp.where(accept, rt, s.r),
+            f=jnp.where(accept, ft, s.f),
+            jac=jnp.where(accept, jt, s.jac),
+            dz=jnp.where(accept, dz_a, dz_r),
+            slope=jnp.where(accept, slope_a, s.r @ (s.jac @ dz_r)),
+            alpha=jnp.where(accept, 1.0, alpha_r),
+            lm=jnp.where(accept, ~newton_ok, to_lm),
+            damping=jnp.where(accept, jnp.maximum(s.damping * 0.3, 1e-9), damping_r),
+            steps=steps,
+            evals=s.evals + 1,
+            status=status,
+        )
 
     def cond(s: LoopState) -> Array:
-        return (s.status < 0) & (s.it < max_steps)
+        return (s.status < 0) & (s.evals < max_steps * (max_bt + 1))
 
-    init = LoopState(z0, jnp.asarray(0), jnp.asarray(-1), jnp.asarray(1e-3), jnp.asarray(jnp.inf))
-    out = jax.lax.while_loop(cond, body, init)
-    # Final residual (the loop stops before re-evaluating after its last step).
-    rn = jnp.max(jnp.abs(res(out.z)))
-    status = jnp.where(
-        out.status >= 0,
-        out.status,
-        jnp.where(rn < atol, Status.CONVERGED.value, Status.MAX_STEPS.value),
+    init = LoopState(
+        z=z0,
+        r=jnp.zeros(n),
+        f=jnp.asarray(jnp.inf),
+        jac=jnp.eye(n),
+        dz=jnp.zeros(n),
+        slope=jnp.asarray(0.0),
+        alpha=jnp.asarray(0.0),
+        lm=jnp.asarray(False),
+        damping=jnp.asarray(1e-3),
+        steps=jnp.asarray(0),
+        evals=jnp.asarray(0),
+        status=jnp.asarray(-1),
     )
-    status = jnp.where(jnp.isfinite(rn), status, Status.NONFINITE.value)
-    return LoopState(out.z, out.it, status, out.damping, rn)
+    out = jax.lax.while_loop(cond, body, init)
+    status = jnp.where(out.status < 0, Status.MAX_STEPS.value, out.status)
+    status = jnp.where(jnp.isfinite(out.f), status, Status.NONFINITE.value)
+    return out._replace(status=status)
 
 
 @functools.lru_cache(maxsize=64)
@@ -297,13 +313,12 @@ def solve_equilibrium(
     if not isinstance(load, Load):
         raise ConfigError("load", load, "a biplan Load (Load.of_force / Load.of_displacement)")
     z0 = _start_vector(model, model.zeros() if start is None else start)
-    if load.is_displacement_controlled and not isinstance(start, Solution) and z0[-1] == 0.0:
-        pass
     loop = compiled_loop(model.layout)
     jload = Load(*(jnp.asarray(float(v)) for v in load))
     out = loop(model.params, jnp.asarray(z0), jload, solver.settings())
     status = Status(int(out.status))
-    sol = make_solution(model, np.asarray(out.z), load, status, float(out.rnorm), int(out.it))
+    rnorm = float(np.max(np.abs(np.asarray(out.r))))
+    sol = make_solution(model, np.asarray(out.z), load, status, rnorm, int(out.steps))
     if throw and not sol.converged:
         raise ConvergenceError(f"equilibrium solve for {load}: {sol.message}")
     return sol

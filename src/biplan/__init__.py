@@ -1,0 +1,73 @@
+"""biplan — BiPlan reduced-order simulation of multistable Mixed Folded Tubes (MFTs).
+
+Units throughout: mm, N, s (mass in t = 10³ kg, so that N = t·mm/s²); angles of the public
+API in degrees, internal rotations in radians.
+
+Quick start::
+
+    import biplan
+    tube = biplan.designs.semi_bistable()
+    model = biplan.Model(tube)
+    ref = biplan.relaxed_reference(model)
+    sol = biplan.solve_equilibrium(model, biplan.Newton(), ref, biplan.Load.of_displacement(1.0))
+    print(sol.force, biplan.classify(model, sol).verdict)
+"""
+
+from importlib.metadata import PackageNotFoundError, version
+
+from biplan import _jax  # noqa: F401  (float64 + compilation cache before anything else)
+from biplan import designs as designs
+from biplan._errors import BiplanError as BiplanError
+from biplan._errors import ConfigError as ConfigError
+from biplan._errors import ConvergenceError as ConvergenceError
+from biplan.analysis.stability import Stability as Stability
+from biplan.analysis.stability import Verdict as Verdict
+from biplan.analysis.stability import classify as classify
+from biplan.analysis.stability import reduced_hessian as reduced_hessian
+from biplan.assembly import Load as Load
+from biplan.assembly import Model as Model
+from biplan.geometry import Development as Development
+from biplan.geometry import FoldRef as FoldRef
+from biplan.geometry import Tube as Tube
+from biplan.io.config import load_config as load_config
+from biplan.laws import LinearLaw as LinearLaw
+from biplan.laws import TransitionReading as TransitionReading
+from biplan.laws import TrilinearLaw as TrilinearLaw
+from biplan.options import ModelOptions as ModelOptions
+from biplan.solvers import Newton as Newton
+from biplan.solvers import Solution as Solution
+from biplan.solvers import Status as Status
+from biplan.solvers import relaxed_reference as relaxed_reference
+from biplan.solvers import solve_equilibrium as solve_equilibrium
+
+try:
+    __version__ = version("biplan")
+except PackageNotFoundError:  # pragma: no cover
+    __version__ = "0.0.0+unknown"
+
+__all__ = [
+    "BiplanError",
+    "ConfigError",
+    "ConvergenceError",
+    "Development",
+    "FoldRef",
+    "LinearLaw",
+    "Load",
+    "Model",
+    "ModelOptions",
+    "Newton",
+    "Solution",
+    "Stability",
+    "Status",
+    "TransitionReading",
+    "TrilinearLaw",
+    "Tube",
+    "Verdict",
+    "__version__",
+    "classify",
+    "designs",
+    "load_config",
+    "reduced_hessian",
+    "relaxed_reference",
+    "solve_equilibrium",
+]

@@ -1,0 +1,73 @@
+"""The paper's designs.
+
+``semi_bistable()`` is the validated design of the SI calibration table (Table calib):
+R = 2 mm, l = 3.6 mm, β = 60°, N = 6, circular k = [0.9, −0.2, 0.6] N/mm² with
+l_circ = [0.2, 1.3] mm, helical linear k = 1.3 N/mm²; b = 0.573 (paper: 0.58), C = 1.444.
+
+``fully_bistable()`` is the four-module variant with both fold sets trilinear and the same
+geometry, no base circular fold (7 bistable folds, MODEL.md §5 K4/§15). The paper gives no laws
+for it; these are provisional (issue "stable states"):
+helical (2.0, −1.6, 1.0) N/mm², (0.05, 0.3) mm; circular (0.9, −0.37, 0.6) N/mm², (0.3, 1.3) mm.
+"""
+
+from __future__ import annotations
+
+from biplan.geometry import Tube
+from biplan.laws import LinearLaw, TrilinearLaw
+from biplan.options import ModelOptions
+
+__all__ = ["fully_bistable", "semi_bistable"]
+
+#: Table calib of the SI.
+SEMI_BISTABLE_TABLE = {
+    "radius": 2.0,
+    "pitch": 3.6,
+    "helical_angle": 60.0,
+    "n_modules": 6,
+    "circular_stiffness": (0.9, -0.2, 0.6),
+    "circular_transitions": (0.2, 1.3),
+    "helical_stiffness": 1.3,
+}
+
+
+def semi_bistable(options: ModelOptions | None = None) -> Tube:
+    """The validated semi-bistable MFT (SI Table calib), under the given readings."""
+    options = options or ModelOptions()
+    t = SEMI_BISTABLE_TABLE
+    circular = TrilinearLaw.from_table(
+        t["circular_stiffness"], t["circular_transitions"], options.transition_reading
+    ).require_bistable("laws.circular")
+    return Tube.uniform(
+        radius=t["radius"],
+        pitch=t["pitch"],
+        helical_angle=t["helical_angle"],
+        n_modules=t["n_modules"],
+        helical=LinearLaw(t["helical_stiffness"]),
+        circular=circular,
+        base_fold=True,
+        options=options,
+        name="semi-bistable MFT (SI Table calib)",
+    )
+
+
+def fully_bistable(options: ModelOptions | None = None, n_modules: int = 4) -> Tube:
+    """The fully bistable MFT (four modules, seven bistable folds) with provisional laws."""
+    options = options or ModelOptions()
+    t = SEMI_BISTABLE_TABLE
+    helical = TrilinearLaw.from_table(
+        (2.0, -1.6, 1.0), (0.05, 0.3), options.transition_reading
+    ).require_bistable("laws.helical")
+    circular = TrilinearLaw.from_table(
+        (0.9, -0.37, 0.6), (0.3, 1.3), options.transition_reading
+    ).require_bistable("laws.circular")
+    return Tube.uniform(
+        radius=t["radius"],
+        pitch=t["pitch"],
+        helical_angle=t["helical_angle"],
+        n_modules=n_modules,
+        helical=helical,
+        circular=circular,
+        base_fold=False,
+        options=options,
+        name=f"fully bistable MFT, {n_modules} modules (provisional laws)",
+    )
