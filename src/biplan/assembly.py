@@ -3,6 +3,7 @@
 One JAX Lagrangian, written once::
 
     L(q, λ, λ_∂, μ) = Π(q) − F z_p(q) + λᵀ g(q) − λ_∂ᵀ w_∂(q) + μ d (z_p(q) − U)
+                      [+ ½κ‖q − q_a‖², an optional proximal bias, κ = 0 by default]
 
 Π sums the exact field energies of every helical field and every connector field; g are the
 guides (2 per module); w_∂ the contact gaps (helical ends, connector field ends; MODEL C1);
@@ -45,6 +46,8 @@ class ModelParams(NamedTuple):
     circular: Array  # (Nc, 5)
     smoothing: Array  # ε of the SFB function
     smooth_min_width: Array  # τ of ContactForm.MINIMUM
+    bias_anchor: Array  # (n_q,) anchor q_a of the optional proximal bias ½κ‖q − q_a‖²
+    bias_stiffness: Array  # κ ≥ 0 (0: no bias)
 
 
 class Load(NamedTuple):
@@ -170,6 +173,7 @@ def lagrangian(
     return (
         helical.sum()
         + circ.sum()
+        + 0.5 * p.bias_stiffness * jnp.sum((q - p.bias_anchor) ** 2)
         - load.force * zp
         + lam @ kin.guides
         - lam_c @ _gaps(layout, p, kin)
@@ -307,6 +311,8 @@ class Model:
             _law_rows(tube.circular_laws),
             jnp.asarray(tube.options.contact_smoothing),
             jnp.asarray(tube.options.smooth_min_width),
+            jnp.zeros(self.layout.n_coordinates),
+            jnp.asarray(0.0),
         )
         self.kernels = kernels(self.layout)
         self.n_coordinates, self.n_guides, self.n_contacts = _sizes(self.layout)
@@ -315,6 +321,26 @@ class Model:
     @property
     def options(self) -> ModelOptions:
         return self.tube.options
+
+    def with_bias(self, anchor: Array, stiffness: float) -> Model:
+        """A copy whose Lagrangian carries the proximal bias ½κ‖q − q_a‖² [N·mm].
+
+        Used for proximal-point descent (branch selection, seeded relaxations); the bias is a
+        traced parameter, so biased and unbiased models share their compiled kernels.
+        """
+        import copy
+
+        anchor = np.asarray(anchor, dtype=float)
+        if anchor.shape != (self.n_coordinates,) or not np.all(np.isfinite(anchor)):
+            raise ConfigError("anchor", anchor.shape, f"finite q of shape ({self.n_coordinates},)")
+        kappa = check_finite("stiffness", stiffness)
+        if kappa < 0:
+            raise ConfigError("stiffness", kappa, ">= 0")
+        out = copy.copy(self)
+        out.params = self.params._replace(
+            bias_anchor=jnp.asarray(anchor), bias_stiffness=jnp.asarray(kappa)
+        )
+        return out
 
     def with_options(self, **changes: Any) -> Model:
         """A model of the same tube under other readings."""

@@ -20,9 +20,8 @@ from biplan.assembly import Load, Model
 from biplan.analysis.stability import Stability, Verdict, classify, reduced_hessian
 from biplan.solvers.newton import Newton, Solution, Status, relaxed_reference, solve_equilibrium
 
-__all__ = ["QuasiStaticPath", "displacement_sweep"]
+__all__ = ["QuasiStaticPath", "displacement_sweep", "relax"]
 
-_AMPLITUDES = (1e-3, 1e-2, 5e-2, 0.2)
 
 
 @dataclass(frozen=True)
@@ -65,28 +64,111 @@ class QuasiStaticPath:
         return len(self.displacement)
 
 
+def relax(
+    model: Model,
+    start: Solution,
+    load: Load,
+    solver: Newton,
+    *,
+    direction: np.ndarray | None = None,
+    amplitude: float = 1e-2,
+    stiffness: float | None = None,
+    max_iterations: int = 300,
+    polish_every: int = 10,
+) -> tuple[Solution, Stability] | None:
+    """Proximal-point descent to a stable equilibrium at ``load``.
+
+    Starting from ``start`` (displaced by ``amplitude · direction`` if given), repeatedly solve
+    the biased problem min Π − W + ½κ‖q − q_k‖² and move the anchor q_k to its solution. With
+    κ above the largest negative curvature each sub-problem is locally convex, so Newton finds
+    its minimiser rather than a saddle, and the anchors descend the energy. Every
+    ``polish_every`` iterations (and when the anchors stop moving) an unbiased Newton solve is
+    tried; the first stable equilibrium it reaches is returned, else None. κ halves after
+    every converged sub-problem (longer strides across flat landscapes such as the ghost of a
+    vanished saddle-node) and quadruples after a failed one.
+
+    Parameters
+    ----------
+    stiffness : float, optional
+        κ; default 2|λ_min(H_r)| + 1 at ``start`` (or 10 if ``start`` is not at ``load``).
+    """
+    if stiffness is None:
+        kappa = 10.0
+        if start.converged and start.load == load:
+            h, _ = reduced_hessian(model, start)
+            lam_min = float(np.linalg.eigvalsh(h)[0]) if h.size else 0.0
+            kappa = 2.0 * abs(min(lam_min, 0.0)) + 1.0
+    else:
+        kappa = float(stiffness)
+    z = start.z.copy()
+    if direction is not None:
+        z[: model.n_coordinates] += amplitude * direction / max(np.linalg.norm(direction), 1e-300)
+    anchor = z[: model.n_coordinates].copy()
+    kappa_min = 1e-3 * kappa
+    for k in range(1, max_iterations + 1):
+        step = solve_equilibrium(model.with_bias(anchor, kappa), solver, z, load)
+        if not step.converged:
+            # Sub-problem not convex enough: stiffen the bias and retry from the same anchor.
+            kappa *= 4.0
+            if kappa > 1e6:
+                return None
+            continue
+        moved = float(np.max(np.abs(step.q - anchor)))
+        z, anchor = step.z, step.q.copy()
+        # Flat landscape (e.g. the ghost of a vanished saddle-node): take longer strides.
+        kappa = max(0.5 * kappa, kappa_min)
+        if k % polish_every == 0 or moved < 1e-9:
+            final = solve_equilibrium(model, solver, z, load)
+            if final.converged:
+                st = classify(model, final)
+                if st.verdict is Verdict.STABLE:
+                    return final, st
+            if moved < 1e-9:
+                return None
+    return None
+
+
 def _stabilise(
     model: Model, sol: Solution, stab: Stability, solver: Newton
 ) -> tuple[Solution, Stability, bool]:
-    """Try to replace an unstable equilibrium by a stable one at the same load."""
+    """Replace an unstable equilibrium by the lowest-energy stable one found by descending
+    along each unstable mode (both senses)."""
     h, basis = reduced_hessian(model, sol)
     eig, vec = np.linalg.eigh(h)
-    modes = [basis @ vec[:, i] for i in range(len(eig)) if eig[i] < 0]
     best: tuple[Solution, Stability] | None = None
-    for mode in modes:
-        for amp in _AMPLITUDES:
-            for sign in (1.0, -1.0):
-                z = sol.z.copy()
-                z[: model.n_coordinates] += sign * amp * mode
-                trial = solve_equilibrium(model, solver, z, sol.load)
-                if not trial.converged:
-                    continue
-                st = classify(model, trial)
-                if st.verdict is Verdict.STABLE and (best is None or trial.energy < best[0].energy):
-                    best = (trial, st)
-        if best is not None:
-            return best[0], best[1], True
-    return sol, stab, False
+    for i in np.flatnonzero(eig < 0):
+        for sign in (1.0, -1.0):
+            found = relax(model, sol, sol.load, solver, direction=sign * (basis @ vec[:, i]))
+            if found is not None and (best is None or found[0].energy < best[0].energy - 1e-12):
+                best = found
+    if best is None:
+        return sol, stab, False
+    return best[0], best[1], True
+
+
+def _advance(
+    model: Model, solver: Newton, current: Solution, target: float, select_stable: bool,
+    depth: int = 0,
+) -> tuple[Solution, Stability | None, bool]:
+    """Solve at ``target`` from ``current``; on failure bisect the increment (≤ 4 levels)."""
+    sol = solve_equilibrium(model, solver, current, Load.of_displacement(target))
+    if not sol.converged:
+        if depth >= 4:
+            found = relax(model, current, Load.of_displacement(target), solver)
+            if found is None:
+                return sol, None, False
+            return found[0], found[1], True
+        mid = 0.5 * (current.displacement + target)
+        half, _, sw1 = _advance(model, solver, current, mid, select_stable, depth + 1)
+        if not half.converged:
+            return sol, None, False
+        sol, stab, sw2 = _advance(model, solver, half, target, select_stable, depth + 1)
+        return sol, stab, sw1 or sw2
+    stab = classify(model, sol)
+    switched = False
+    if select_stable and stab.verdict is Verdict.UNSTABLE:
+        sol, stab, switched = _stabilise(model, sol, stab, solver)
+    return sol, stab, switched
 
 
 def displacement_sweep(
@@ -124,12 +206,8 @@ def displacement_sweep(
     rows: list[tuple] = []
     sols: list[Solution] = []
     for target in u:
-        sol = solve_equilibrium(model, solver, current, Load.of_displacement(float(target)))
-        switched = False
-        if sol.converged:
-            stab = classify(model, sol)
-            if select_stable and stab.verdict is Verdict.UNSTABLE:
-                sol, stab, switched = _stabilise(model, sol, stab, solver)
+        sol, stab, switched = _advance(model, solver, current, float(target), select_stable)
+        if sol.converged and stab is not None:
             current = sol
             e = model.endpoint(sol.q)
             rows.append(
