@@ -33,7 +33,7 @@ from biplan.geometry.tube import Tube, TubeLayout
 from biplan.laws import _kernels as law_kernels
 from biplan.options import ContactForm, ModelOptions
 
-__all__ = ["Load", "Model", "ModelParams", "TubeLayout", "kernels"]
+__all__ = ["Load", "Model", "ModelParams", "StateData", "TubeLayout", "kernels"]
 
 Array = Any
 
@@ -79,6 +79,10 @@ class Load(NamedTuple):
     @property
     def is_displacement_controlled(self) -> bool:
         return bool(float(self.displacement_control) > 0.5)
+
+
+def _jax_load(load: Load) -> Load:
+    return Load(*(jnp.asarray(float(v)) for v in load))
 
 
 def _law_rows(laws: tuple) -> Array:  # type: ignore[type-arg]
@@ -200,6 +204,83 @@ def residual(layout: TubeLayout, p: ModelParams, z: Array, load: Load) -> Array:
     )
 
 
+def _constraint_values(
+    layout: TubeLayout, p: ModelParams, q: Array, kin_ref: chain.Kinematics
+) -> Array:
+    """[g(q), w_∂(q), z_p(q)]: everything the KKT rows differentiate."""
+    kin = _kin(layout, p, q)
+    zp = chain.load_height(layout, p.geometry, kin, kin_ref)
+    return jnp.concatenate([kin.guides, _gaps(layout, p, kin), zp[None]])
+
+
+def kkt_jacobian(layout: TubeLayout, p: ModelParams, z: Array, load: Load) -> Array:
+    """∂r/∂z assembled from its blocks (MODEL §11)::
+
+        [[K,        Gᵀ, −Cᵀ,          d a],
+         [G,        0,   0,            0 ],
+         [D_w C,    0,   D_λ,          0 ],
+         [d aᵀ,     0,   0,        1 − d ]]
+
+    K = ∇²_q L (autodiff Hessian over the n_q coordinates), [G; C; aᵀ] the autodiff Jacobian
+    of (g, w_∂, z_p), D_w = diag(w/ρ − 1), D_λ = diag(λ/ρ − 1), ρ = √(w² + λ² + ε²).
+    Cheaper to compile and run than differentiating the residual over all unknowns.
+    """
+    nq, ng, nc = _sizes(layout)
+    q, lam, lam_c, mu = _split(layout, z)
+    kin_ref = jax.lax.stop_gradient(_reference_load_point(layout, p))
+    rest = z[nq:]
+    k = jax.hessian(lambda qq: lagrangian(layout, p, jnp.concatenate([qq, rest]), load, kin_ref))(q)
+    jc = jax.jacfwd(lambda qq: _constraint_values(layout, p, qq, kin_ref))(q)
+    w = _constraint_values(layout, p, q, kin_ref)[ng : ng + nc]
+    g_mat, c_mat, a = jc[:ng], jc[ng : ng + nc], jc[-1]
+    rho = jnp.sqrt(w**2 + lam_c**2 + p.smoothing**2)
+    d = load.displacement_control
+    zeros = jnp.zeros
+    top = jnp.concatenate([k, g_mat.T, -c_mat.T, (d * a)[:, None]], axis=1)
+    mid = jnp.concatenate([g_mat, zeros((ng, ng + nc + 1))], axis=1)
+    sfb_rows = jnp.concatenate(
+        [(w / rho - 1.0)[:, None] * c_mat, zeros((nc, ng)), jnp.diag(lam_c / rho - 1.0), zeros((nc, 1))],
+        axis=1,
+    )
+    last = jnp.concatenate([d * a, zeros(ng + nc), (1.0 - d)[None]])[None, :]
+    return jnp.concatenate([top, mid, sfb_rows, last], axis=0)
+
+
+class StateData(NamedTuple):
+    """Post-processing quantities of one state, computed by a single kernel."""
+
+    energy: Array
+    helical_energy: Array
+    circular_energy: Array
+    load_displacement: Array
+    endpoint: chain.Endpoint
+    lagrangian_hessian: Array
+    constraint_jacobian: Array  # rows [g; w_∂; z_p]
+    gaps: Array
+
+
+def state_data(layout: TubeLayout, p: ModelParams, z: Array, load: Load) -> StateData:
+    """Energy split, endpoint, Lagrangian Hessian and constraint Jacobians at z."""
+    nq, ng, nc = _sizes(layout)
+    q = z[:nq]
+    kin_ref = jax.lax.stop_gradient(_reference_load_point(layout, p))
+    kin = _kin(layout, p, q)
+    helical, circ = _energies(layout, p, kin)
+    rest = z[nq:]
+    k = jax.hessian(lambda qq: lagrangian(layout, p, jnp.concatenate([qq, rest]), load, kin_ref))(q)
+    jc = jax.jacfwd(lambda qq: _constraint_values(layout, p, qq, kin_ref))(q)
+    return StateData(
+        energy=helical.sum() + circ.sum(),
+        helical_energy=helical,
+        circular_energy=circ,
+        load_displacement=chain.load_height(layout, p.geometry, kin, kin_ref),
+        endpoint=chain.endpoint(layout, p.geometry, q),
+        lagrangian_hessian=k,
+        constraint_jacobian=jc,
+        gaps=_gaps(layout, p, kin),
+    )
+
+
 def _sizes(layout: TubeLayout) -> tuple[int, int, int]:
     nq = layout.n_coordinates
     ng = 2 * layout.n_modules
@@ -229,6 +310,8 @@ class Kernels:
     contact_jacobian: Any
     residual: Any
     jacobian: Any
+    jacobian_autodiff: Any
+    state: Any
     lagrangian_hessian: Any
     endpoint: Any
     load_height: Any
@@ -267,7 +350,9 @@ def kernels(layout: TubeLayout) -> Kernels:
         contact_gaps=jax.jit(functools.partial(contact_gaps, L)),
         contact_jacobian=jax.jit(jax.jacfwd(functools.partial(contact_gaps, L), argnums=1)),
         residual=jax.jit(res),
-        jacobian=jax.jit(jax.jacfwd(res, argnums=1)),
+        jacobian=jax.jit(functools.partial(kkt_jacobian, L)),
+        jacobian_autodiff=jax.jit(jax.jacfwd(res, argnums=1)),
+        state=jax.jit(functools.partial(state_data, L)),
         lagrangian_hessian=jax.jit(lag_hess),
         endpoint=jax.jit(lambda p, q: chain.endpoint(L, p.geometry, q)),
         load_height=jax.jit(lh),
@@ -416,6 +501,15 @@ class Model:
     def jacobian(self, z: Array, load: Load) -> np.ndarray:
         """∂r/∂z, (n_z, n_z)."""
         return np.asarray(self.kernels.jacobian(self.params, jnp.asarray(z), load))
+
+    def jacobian_autodiff(self, z: Array, load: Load) -> np.ndarray:
+        """∂r/∂z by forward-mode autodiff of the whole residual (reference for tests)."""
+        return np.asarray(self.kernels.jacobian_autodiff(self.params, jnp.asarray(z), load))
+
+    def state(self, z: Array, load: Load) -> StateData:
+        """Energies, endpoint, Lagrangian Hessian and constraint Jacobians at z (one kernel)."""
+        out = self.kernels.state(self.params, jnp.asarray(z), _jax_load(load))
+        return jax.tree_util.tree_map(np.asarray, out)
 
     def lagrangian_hessian(self, z: Array, load: Load) -> np.ndarray:
         """∇²_q L at z: energy, load and multiplier curvature (MODEL CHOICE S2)."""

@@ -84,7 +84,7 @@ def _check(model: Model, solution: Solution) -> None:
 
 def active_contacts(model: Model, solution: Solution) -> np.ndarray:
     """Boolean mask of the active contact conditions (MODEL CHOICE S1)."""
-    gaps = model.contact_gaps(solution.q)
+    gaps = solution.data.gaps
     closed = gaps < ACTIVE_GAP
     if model.options.weak_contacts_active:
         return closed
@@ -94,12 +94,14 @@ def active_contacts(model: Model, solution: Solution) -> np.ndarray:
 def active_constraint_jacobian(model: Model, solution: Solution) -> np.ndarray:
     """A = ∂c_active/∂q: guides, active contacts and (displacement control) the end constraint."""
     _check(model, solution)
-    rows = [model.constraint_jacobian(solution.q)]
+    jc = solution.data.constraint_jacobian
+    ng = model.n_guides
+    rows = [jc[:ng]]
     mask = active_contacts(model, solution)
     if mask.any():
-        rows.append(model.contact_jacobian(solution.q)[mask])
+        rows.append(jc[ng : ng + model.n_contacts][mask])
     if solution.load.is_displacement_controlled:
-        rows.append(model.load_gradient(solution.q)[None, :])
+        rows.append(jc[-1:])
     return np.concatenate(rows, axis=0)
 
 
@@ -125,7 +127,7 @@ def reduced_hessian(
         verdict; an orthonormal one gives the same eigenvalues).
     """
     _check(model, solution)
-    k = model.lagrangian_hessian(solution.z, solution.load)
+    k = solution.data.lagrangian_hessian
     n = null_space(active_constraint_jacobian(model, solution)) if basis is None else basis
     h = n.T @ k @ n
     return 0.5 * (h + h.T), n

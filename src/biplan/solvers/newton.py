@@ -18,7 +18,7 @@ import numpy as np
 
 from biplan._errors import ConfigError, ConvergenceError, check_range
 from biplan._jax import jax, jnp
-from biplan.assembly import Load, Model, TubeLayout, kernels
+from biplan.assembly import Load, Model, StateData, TubeLayout, kernels
 
 __all__ = ["Newton", "Solution", "Status", "relaxed_reference", "solve_equilibrium"]
 
@@ -225,6 +225,7 @@ class Solution:
     iterations: int
     energy: float
     z: np.ndarray = field(repr=False)
+    data: StateData = field(repr=False, compare=False)
 
     @property
     def converged(self) -> bool:
@@ -263,7 +264,8 @@ def _start_vector(model: Model, start: Any) -> np.ndarray:
 def make_solution(model: Model, z: np.ndarray, load: Load, status: Status, rnorm: float, it: int) -> Solution:
     """Wrap a packed solution vector into a :class:`Solution`."""
     q, lam, lam_c, mu = model.split(z)
-    zp = model.load_displacement(q)
+    data = model.state(z, load)
+    zp = float(data.load_displacement)
     force = -mu if load.is_displacement_controlled else float(load.force)
     return Solution(
         q=q,
@@ -275,8 +277,9 @@ def make_solution(model: Model, z: np.ndarray, load: Load, status: Status, rnorm
         status=status,
         residual_norm=float(rnorm),
         iterations=int(it),
-        energy=model.energy(q),
+        energy=float(data.energy),
         z=np.asarray(z),
+        data=data,
     )
 
 
