@@ -165,7 +165,11 @@ def load_height(layout: TubeLayout, p: ModelParams, q: Array) -> Array:
 
 
 def lagrangian(
-    layout: TubeLayout, p: ModelParams, z: Array, load: Load, kin_ref: chain.Kinematics | None = None
+    layout: TubeLayout,
+    p: ModelParams,
+    z: Array,
+    load: Load,
+    kin_ref: chain.Kinematics | None = None,
 ) -> Array:
     """L(q, λ, λ_∂, μ) of the module docstring [N·mm]."""
     q, lam, lam_c, mu = _split(layout, z)
@@ -190,7 +194,9 @@ def residual(layout: TubeLayout, p: ModelParams, z: Array, load: Load) -> Array:
     q, _, lam_c, mu = _split(layout, z)
     kin_ref = jax.lax.stop_gradient(_reference_load_point(layout, p))
     rest = z[layout.n_coordinates :]
-    grad_q = jax.grad(lambda qq: lagrangian(layout, p, jnp.concatenate([qq, rest]), load, kin_ref))(q)
+    grad_q = jax.grad(lambda qq: lagrangian(layout, p, jnp.concatenate([qq, rest]), load, kin_ref))(
+        q
+    )
     kin = _kin(layout, p, q)
     zp = chain.load_height(layout, p.geometry, kin, kin_ref)
     d = load.displacement_control
@@ -226,7 +232,7 @@ def kkt_jacobian(layout: TubeLayout, p: ModelParams, z: Array, load: Load) -> Ar
     Cheaper to compile and run than differentiating the residual over all unknowns.
     """
     nq, ng, nc = _sizes(layout)
-    q, lam, lam_c, mu = _split(layout, z)
+    q, _lam, lam_c, _mu = _split(layout, z)
     kin_ref = jax.lax.stop_gradient(_reference_load_point(layout, p))
     rest = z[nq:]
     k = jax.hessian(lambda qq: lagrangian(layout, p, jnp.concatenate([qq, rest]), load, kin_ref))(q)
@@ -239,7 +245,12 @@ def kkt_jacobian(layout: TubeLayout, p: ModelParams, z: Array, load: Load) -> Ar
     top = jnp.concatenate([k, g_mat.T, -c_mat.T, (d * a)[:, None]], axis=1)
     mid = jnp.concatenate([g_mat, zeros((ng, ng + nc + 1))], axis=1)
     sfb_rows = jnp.concatenate(
-        [(w / rho - 1.0)[:, None] * c_mat, zeros((nc, ng)), jnp.diag(lam_c / rho - 1.0), zeros((nc, 1))],
+        [
+            (w / rho - 1.0)[:, None] * c_mat,
+            zeros((nc, ng)),
+            jnp.diag(lam_c / rho - 1.0),
+            zeros((nc, 1)),
+        ],
         axis=1,
     )
     last = jnp.concatenate([d * a, zeros(ng + nc), (1.0 - d)[None]])[None, :]
@@ -261,7 +272,7 @@ class StateData(NamedTuple):
 
 def state_data(layout: TubeLayout, p: ModelParams, z: Array, load: Load) -> StateData:
     """Energy split, endpoint, Lagrangian Hessian and constraint Jacobians at z."""
-    nq, ng, nc = _sizes(layout)
+    nq, _ng, _nc = _sizes(layout)
     q = z[:nq]
     kin_ref = jax.lax.stop_gradient(_reference_load_point(layout, p))
     kin = _kin(layout, p, q)
@@ -322,7 +333,7 @@ class Kernels:
 @functools.lru_cache(maxsize=64)
 def kernels(layout: TubeLayout) -> Kernels:
     """Build (once per layout) the jitted kernels of a tube layout."""
-    L = layout  # noqa: N806
+    L = layout
 
     def lag_hess(p: ModelParams, z: Array, load: Load) -> Array:
         nq = L.n_coordinates
@@ -444,7 +455,9 @@ class Model:
         q, lam, lam_c, mu = _split(self.layout, np.asarray(z))
         return np.asarray(q), np.asarray(lam), np.asarray(lam_c), float(mu)
 
-    def pack(self, q: Array, lam: Array | None = None, lam_c: Array | None = None, mu: float = 0.0) -> np.ndarray:
+    def pack(
+        self, q: Array, lam: Array | None = None, lam_c: Array | None = None, mu: float = 0.0
+    ) -> np.ndarray:
         """Packed z = [q, λ, λ_∂, μ] (missing multipliers are zero)."""
         q = np.asarray(q, dtype=float)
         if q.shape != (self.n_coordinates,):
@@ -547,5 +560,10 @@ class Model:
         ]
 
     def global_nodes(self, q: Array) -> np.ndarray:
-        """Deformed nodes in the global development plane, (N, 7, 2) [mm]."""
+        """Deformed nodes in the global development plane, (N, 7, 2) [mm] (z, s)."""
         return np.asarray(chain.global_nodes(self.kernels.kinematics(self.params, self._q(q))))
+
+    def cylinder_nodes(self, q: Array) -> np.ndarray:
+        """Deformed nodes wrapped onto the cylinder of radius R, (N, 7, 3) [mm] (x, y, z)."""
+        nodes = self.global_nodes(q)
+        return np.asarray(chain.wrap_to_cylinder(nodes, self.tube.development.radius))

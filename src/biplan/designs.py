@@ -12,22 +12,30 @@ helical (2.0, −1.6, 1.0) N/mm², (0.05, 0.3) mm; circular (0.9, −0.37, 0.6) 
 
 from __future__ import annotations
 
+from dataclasses import dataclass
+
 from biplan.geometry import Tube
 from biplan.laws import LinearLaw, TrilinearLaw
 from biplan.options import ModelOptions
 
 __all__ = ["fully_bistable", "semi_bistable"]
 
+
+@dataclass(frozen=True)
+class CalibrationTable:
+    """SI Table calib: geometry [mm, deg] and laws [N/mm², mm] of the validated design."""
+
+    radius: float = 2.0
+    pitch: float = 3.6
+    helical_angle: float = 60.0
+    n_modules: int = 6
+    circular_stiffness: tuple[float, float, float] = (0.9, -0.2, 0.6)
+    circular_transitions: tuple[float, float] = (0.2, 1.3)
+    helical_stiffness: float = 1.3
+
+
 #: Table calib of the SI.
-SEMI_BISTABLE_TABLE = {
-    "radius": 2.0,
-    "pitch": 3.6,
-    "helical_angle": 60.0,
-    "n_modules": 6,
-    "circular_stiffness": (0.9, -0.2, 0.6),
-    "circular_transitions": (0.2, 1.3),
-    "helical_stiffness": 1.3,
-}
+SEMI_BISTABLE_TABLE = CalibrationTable()
 
 
 def semi_bistable(options: ModelOptions | None = None) -> Tube:
@@ -35,14 +43,14 @@ def semi_bistable(options: ModelOptions | None = None) -> Tube:
     options = options or ModelOptions()
     t = SEMI_BISTABLE_TABLE
     circular = TrilinearLaw.from_table(
-        t["circular_stiffness"], t["circular_transitions"], options.transition_reading
+        t.circular_stiffness, t.circular_transitions, options.transition_reading
     ).require_bistable("laws.circular")
     return Tube.uniform(
-        radius=t["radius"],
-        pitch=t["pitch"],
-        helical_angle=t["helical_angle"],
-        n_modules=t["n_modules"],
-        helical=LinearLaw(t["helical_stiffness"]),
+        radius=t.radius,
+        pitch=t.pitch,
+        helical_angle=t.helical_angle,
+        n_modules=t.n_modules,
+        helical=LinearLaw(t.helical_stiffness),
         circular=circular,
         base_fold=True,
         options=options,
@@ -61,9 +69,9 @@ def fully_bistable(options: ModelOptions | None = None, n_modules: int = 4) -> T
         (0.9, -0.37, 0.6), (0.3, 1.3), options.transition_reading
     ).require_bistable("laws.circular")
     return Tube.uniform(
-        radius=t["radius"],
-        pitch=t["pitch"],
-        helical_angle=t["helical_angle"],
+        radius=t.radius,
+        pitch=t.pitch,
+        helical_angle=t.helical_angle,
         n_modules=n_modules,
         helical=helical,
         circular=circular,

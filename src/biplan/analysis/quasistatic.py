@@ -16,12 +16,11 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from biplan._errors import ConfigError
-from biplan.assembly import Load, Model
 from biplan.analysis.stability import Stability, Verdict, classify, reduced_hessian
+from biplan.assembly import Load, Model
 from biplan.solvers.newton import Newton, Solution, Status, relaxed_reference, solve_equilibrium
 
 __all__ = ["QuasiStaticPath", "displacement_sweep", "relax"]
-
 
 
 @dataclass(frozen=True)
@@ -102,7 +101,9 @@ def relax(
         kappa = float(stiffness)
     z = start.z.copy()
     if direction is not None:
-        z[: model.n_coordinates] += amplitude * direction / max(np.linalg.norm(direction), 1e-300)
+        z[: model.n_coordinates] += (
+            amplitude * direction / max(float(np.linalg.norm(direction)), 1e-300)
+        )
     anchor = z[: model.n_coordinates].copy()
     kappa_min = 1e-3 * kappa
     for k in range(1, max_iterations + 1):
@@ -147,7 +148,11 @@ def _stabilise(
 
 
 def _advance(
-    model: Model, solver: Newton, current: Solution, target: float, select_stable: bool,
+    model: Model,
+    solver: Newton,
+    current: Solution,
+    target: float,
+    select_stable: bool,
     depth: int = 0,
 ) -> tuple[Solution, Stability | None, bool]:
     """Solve at ``target`` from ``current``; on failure bisect the increment (≤ 4 levels)."""
@@ -211,8 +216,18 @@ def displacement_sweep(
             current = sol
             e = model.endpoint(sol.q)
             rows.append(
-                (target, sol.force, e.u_z, e.u_r, e.theta, sol.energy, stab.min_eigenvalue,
-                 stab.stable, sol.status, switched)
+                (
+                    target,
+                    sol.force,
+                    e.u_z,
+                    e.u_r,
+                    e.theta,
+                    sol.energy,
+                    stab.min_eigenvalue,
+                    stab.stable,
+                    sol.status,
+                    switched,
+                )
             )
         else:
             nan = float("nan")

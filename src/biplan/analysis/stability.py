@@ -25,8 +25,8 @@ from biplan.assembly import Model
 from biplan.solvers.newton import Solution
 
 __all__ = [
-    "ACTIVE_MULTIPLIER",
     "ACTIVE_GAP",
+    "ACTIVE_MULTIPLIER",
     "Stability",
     "Verdict",
     "active_constraint_jacobian",

@@ -252,7 +252,7 @@ def _frames(
 
 def global_nodes(kin: Kinematics) -> Array:
     """Deformed nodes in the global (z, s) plane, (N, 7, 2) [mm] (SI Eq. global_module_min)."""
-    hom = jnp.concatenate([kin.local_nodes, jnp.ones(kin.local_nodes.shape[:2] + (1,))], axis=2)
+    hom = jnp.concatenate([kin.local_nodes, jnp.ones((*kin.local_nodes.shape[:2], 1))], axis=2)
     return jnp.einsum("nij,nkj->nki", kin.frames, hom)[..., :2]
 
 

@@ -20,6 +20,7 @@ vectorised in :mod:`biplan.geometry.kinematics`.
 
 from __future__ import annotations
 
+import itertools
 from dataclasses import dataclass
 
 from biplan.geometry.module import Edge
@@ -100,7 +101,7 @@ class ConnectorSpec:
 
         out = []
         rigid_lower = self.lower_edge is None or self.lower_full_element is not None
-        for a, b in zip(bounds[:-1], bounds[1:], strict=True):
+        for a, b in itertools.pairwise(bounds):
             up = element(self.upper_edge, b)
             lo = None if rigid_lower else element(self.lower_edge, b)
             assert up is not None

@@ -108,7 +108,10 @@ class Tube:
             raise ConfigError(
                 "circular_laws", len(self.circular_laws), f"{nc} laws (one per circular fold)"
             )
-        for name, laws in (("helical_laws", self.helical_laws), ("circular_laws", self.circular_laws)):
+        for name, laws in (
+            ("helical_laws", self.helical_laws),
+            ("circular_laws", self.circular_laws),
+        ):
             for i, law in enumerate(laws):
                 if not isinstance(law, TrilinearLaw | LinearLaw):
                     raise ConfigError(f"{name}[{i}]", law, "a TrilinearLaw or LinearLaw")
@@ -156,7 +159,9 @@ class Tube:
         if not 0 <= ref.index < len(laws):
             raise ConfigError("fold.index", ref.index, f"in [0, {len(laws) - 1}]")
         laws[ref.index] = law
-        return replace(self, **{name: tuple(laws)})
+        if name == "helical_laws":
+            return replace(self, helical_laws=tuple(laws))
+        return replace(self, circular_laws=tuple(laws))
 
     def with_options(self, **changes: Any) -> Tube:
         """Copy with some model readings changed (see :class:`ModelOptions`)."""
@@ -169,7 +174,7 @@ class Tube:
         return self.development.b
 
     @property
-    def C(self) -> float:  # noqa: N802 (paper symbol)
+    def C(self) -> float:
         """Stiffness ratio C = k_helic / k1_circ of the base-most helical and circular laws."""
         if not self.circular_laws:
             raise ConfigError("circular_laws", (), "at least one circular fold to define C")

@@ -65,10 +65,14 @@ class LawMixin:
         Main Eq. (field_strain_energy) with SI Eq. (17); closed form of MODEL.md §2.
         """
         f = jnp.asarray
-        res = K.field_energy(f(w0, dtype=float), f(w1, dtype=float), f(length, dtype=float), self._c())
+        res = K.field_energy(
+            f(w0, dtype=float), f(w1, dtype=float), f(length, dtype=float), self._c()
+        )
         return _out(res, w0, w1, length)
 
     def phase_fractions(self, w0: Any, w1: Any) -> Any:
         """Fractions (closed, spinodal, open) of a linear field w0 → w1 on each branch."""
-        res = K.phase_fractions(jnp.asarray(w0, dtype=float), jnp.asarray(w1, dtype=float), self._c())
+        res = K.phase_fractions(
+            jnp.asarray(w0, dtype=float), jnp.asarray(w1, dtype=float), self._c()
+        )
         return _out(res, w0, w1)

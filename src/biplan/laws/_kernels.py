@@ -1,4 +1,6 @@
-"""Elementwise JAX kernels of the trilinear fold law (main Eqs. stiffness, field_constitutive_energy).
+"""Elementwise JAX kernels of the trilinear fold law.
+
+Main Eqs. (stiffness) and (field_constitutive_energy).
 
 Every function takes the local elongation ``w`` [mm] and the law coefficients
 ``c = (k1, k2, k3, w1, w2)`` (stiffnesses in N/mm², breakpoints in mm); all arguments broadcast,
@@ -30,7 +32,7 @@ SPLIT_TOLERANCE = 1e-6
 
 
 def _consts(c: Coefficients) -> tuple[Array, ...]:
-    k1, k2, k3, w1, w2 = c
+    k1, k2, _k3, w1, w2 = c
     d = w2 - w1
     f1 = k1 * w1
     f2 = f1 + k2 * d
@@ -108,7 +110,9 @@ def _pieces(w0: Array, wl: Array, c: Coefficients) -> tuple[Array, ...]:
 
 
 def field_energy(w0: Array, wl: Array, length: Array, c: Coefficients) -> Array:
-    """Exact ∫_0^L Ψ(w(x)) dx for w linear from ``w0`` to ``wl`` [N·mm] (main Eq. field_strain_energy).
+    """Exact ∫_0^L Ψ(w(x)) dx [N·mm] for w linear from ``w0`` to ``wl``.
+
+    Main Eq. (field_strain_energy) with SI Eq. (17).
 
     On each branch Ψ is quadratic, so its mean over a sub-interval of width h centred at m is
     exactly ``Ψ(m) + h² k / 24``. The interval [w0, wL] is split at the breakpoints it contains;

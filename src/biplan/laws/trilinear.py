@@ -132,7 +132,10 @@ class TrilinearLaw(LawMixin):
         return self.transitions
 
     def barrier(self) -> tuple[float, float]:
-        """Energy-density barriers [N]: (closed → open, open → closed) = (Ψ(w_b), Ψ(w_b) − Ψ(w_s))."""
+        """Energy-density barriers [N]: (closed → open, open → closed).
+
+        These are (Ψ(w_b), Ψ(w_b) − Ψ(w_s)).
+        """
         wb = self.hilltop()
         ws = self.wells()[1]
         psi_b = float(self.energy_density(wb))

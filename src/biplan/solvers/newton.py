@@ -91,7 +91,9 @@ class LoopState(NamedTuple):
     status: Array  # -1 running, else Status value
 
 
-def newton_loop(layout: TubeLayout, params: Any, z0: Array, load: Load, settings: Array) -> LoopState:
+def newton_loop(
+    layout: TubeLayout, params: Any, z0: Array, load: Load, settings: Array
+) -> LoopState:
     """Pure (jit/vmap-able) globalised Newton iteration.
 
     Written as a state machine with a single residual and a single Jacobian evaluation site,
@@ -243,7 +245,9 @@ def _start_vector(model: Model, start: Any) -> np.ndarray:
     if isinstance(start, Solution):
         z = np.asarray(start.z, dtype=float)
         if z.shape != (model.n_unknowns,):
-            raise ConfigError("start", z.shape, f"a Solution of this model ({model.n_unknowns} unknowns)")
+            raise ConfigError(
+                "start", z.shape, f"a Solution of this model ({model.n_unknowns} unknowns)"
+            )
         return z
     arr = np.asarray(start, dtype=float)
     if arr.shape == (model.n_unknowns,):
@@ -261,7 +265,9 @@ def _start_vector(model: Model, start: Any) -> np.ndarray:
     return z
 
 
-def make_solution(model: Model, z: np.ndarray, load: Load, status: Status, rnorm: float, it: int) -> Solution:
+def make_solution(
+    model: Model, z: np.ndarray, load: Load, status: Status, rnorm: float, it: int
+) -> Solution:
     """Wrap a packed solution vector into a :class:`Solution`."""
     q, lam, lam_c, mu = model.split(z)
     data = model.state(z, load)
@@ -327,7 +333,9 @@ def solve_equilibrium(
     return sol
 
 
-def relaxed_reference(model: Model, solver: Newton | None = None, *, throw: bool = True) -> Solution:
+def relaxed_reference(
+    model: Model, solver: Newton | None = None, *, throw: bool = True
+) -> Solution:
     """The relaxed reference configuration q_ref: clamped base only, no load (SI "Numerical
     solver"). Starts from q = 0, which is an equilibrium up to the contact regularisation."""
     return solve_equilibrium(model, solver, model.zeros(), Load.of_force(0.0), throw=throw)
