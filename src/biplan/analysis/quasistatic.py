@@ -11,6 +11,7 @@ as such. Path following through limit points (arc length) lives in the continuat
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -183,6 +184,7 @@ def displacement_sweep(
     start: Solution | None = None,
     *,
     select_stable: bool = True,
+    progress: Callable[[int, int], object] | None = None,
 ) -> QuasiStaticPath:
     """Sweep the prescribed end displacement through ``displacements`` [mm].
 
@@ -196,6 +198,8 @@ def displacement_sweep(
         Starting equilibrium; default the relaxed reference.
     select_stable : bool
         Leave unstable equilibria for stable ones at the same U (see module docstring).
+    progress : callable, optional
+        Called as ``progress(step_done, n_steps)`` after every step (e.g. a progress bar).
 
     Returns
     -------
@@ -233,6 +237,8 @@ def displacement_sweep(
             nan = float("nan")
             rows.append((target, nan, nan, nan, nan, nan, nan, False, sol.status, False))
         sols.append(sol)
+        if progress is not None:
+            progress(len(sols), u.size)
     cols = list(zip(*rows, strict=True))
     return QuasiStaticPath(
         displacement=np.asarray(cols[0]),

@@ -1,0 +1,319 @@
+"""``biplan demo``: the displacement-controlled extension of the semi-bistable MFT.
+
+Builds the validated semi-bistable design (SI Table calib) or a tube from a TOML file, relaxes
+it, sweeps the prescribed end displacement U from 0 (exclusive) to 9 mm with
+:func:`~biplan.analysis.quasistatic.displacement_sweep`, prints a table and a summary, and
+writes into ``--out``:
+
+* ``force_displacement.png`` — F [N] against U [mm], snapshot states marked (a)–(c);
+* ``development.png`` — deformed developments of the snapshots, folds coloured by w [mm];
+* ``cylinder.png`` — the snapshots wrapped onto the cylinder, side by side;
+* ``demo.csv`` — one row per step: displacement [mm], force [N], u_z [mm], u_r [mm],
+  theta [rad], energy [N·mm], min_eigenvalue, stable (1/0), status.
+
+Snapshots: (a) the phase-1 state (before the first snap or unstable step) whose force is
+nearest half the phase-1 peak force, (b) the phase-1 peak, (c) the last converged state.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import csv
+import time
+from collections.abc import Callable
+from pathlib import Path
+from typing import TYPE_CHECKING, Annotated
+
+import numpy as np
+import typer
+from rich.console import Console
+from rich.markup import escape
+from rich.table import Table
+
+if TYPE_CHECKING:
+    from biplan.analysis.quasistatic import QuasiStaticPath
+    from biplan.assembly import Model
+    from biplan.geometry import Tube
+    from biplan.solvers import Solution
+
+__all__ = ["CSV_COLUMNS", "MAX_DISPLACEMENT", "demo", "phase_one", "snapshots", "write_csv"]
+
+#: Final prescribed end displacement of the demo sweep [mm].
+MAX_DISPLACEMENT = 9.0
+CSV_COLUMNS = (
+    "displacement",
+    "force",
+    "u_z",
+    "u_r",
+    "theta",
+    "energy",
+    "min_eigenvalue",
+    "stable",
+    "status",
+)
+#: Print every TABLE_STRIDE-th step in the table (and the last one).
+TABLE_STRIDE = 5
+DPI = 300
+
+
+def _tube(config: Path | None) -> Tube:
+    """The design to run: a TOML configuration, or the semi-bistable MFT."""
+    import biplan
+
+    if config is None:
+        return biplan.designs.semi_bistable()
+    return biplan.load_config(config)
+
+
+def _sweep(
+    model: Model, targets: np.ndarray, start: Solution, advance: Callable[[], object]
+) -> QuasiStaticPath:
+    """The displacement sweep, advancing a progress bar after every step."""
+    from biplan.analysis.quasistatic import displacement_sweep
+
+    return displacement_sweep(model, targets, start=start, progress=lambda *_: advance())
+
+
+def phase_one(path: QuasiStaticPath) -> slice:
+    """Steps of phase 1: from the start up to (excluding) the first step that failed, is
+    unstable or switched branch (the first snap)."""
+    regular = np.isfinite(path.force) & path.stable & ~path.switched
+    end = int(np.argmin(regular)) if not regular.all() else len(regular)
+    return slice(0, end)
+
+
+def snapshots(path: QuasiStaticPath) -> dict[str, int]:
+    """Step indices of the three snapshot states (a), (b), (c) (see module docstring)."""
+    import biplan
+
+    ok = np.flatnonzero(np.isfinite(path.force))
+    if ok.size == 0:
+        raise biplan.ConvergenceError("no step of the displacement sweep converged")
+    first = phase_one(path)
+    idx = np.arange(len(path.force))[first]
+    if idx.size == 0:  # no regular phase 1: fall back to the whole converged path
+        idx = ok
+    peak = int(idx[np.argmax(path.force[idx])])
+    half = int(idx[np.argmin(np.abs(path.force[idx] - 0.5 * path.force[peak]))])
+    return {"a": half, "b": peak, "c": int(ok[-1])}
+
+
+def write_csv(path: QuasiStaticPath, file: Path) -> None:
+    """Write one row per step with the columns :data:`CSV_COLUMNS` (units in module doc)."""
+    with file.open("w", newline="") as fh:
+        out = csv.writer(fh)
+        out.writerow(CSV_COLUMNS)
+        for k in range(len(path.displacement)):
+            numbers = (
+                path.displacement[k],
+                path.force[k],
+                path.u_z[k],
+                path.u_r[k],
+                path.theta[k],
+                path.energy[k],
+                path.min_eigenvalue[k],
+            )
+            out.writerow(
+                [f"{float(x):.12g}" for x in numbers]
+                + [int(bool(path.stable[k])), path.status[k].name]
+            )
+
+
+def _table(path: QuasiStaticPath) -> Table:
+    table = Table(title="Displacement-controlled sweep", title_style="bold", min_width=60)
+    for name in ("step", "U [mm]", "F [N]", "u_z [mm]", "u_r [mm]", "θ [°]"):
+        table.add_column(escape(name), justify="right", no_wrap=True)
+    table.add_column("state")
+    n = len(path.displacement)
+    for k in range(n):
+        if (k + 1) % TABLE_STRIDE and k != n - 1 and not path.switched[k]:
+            continue
+        if not np.isfinite(path.force[k]):
+            state = f"[red]failed ({path.status[k].name})[/]"
+        elif path.switched[k]:
+            state = "[yellow]snap → stable[/]"
+        else:
+            state = "stable" if path.stable[k] else "[red]unstable[/]"
+        table.add_row(
+            str(k + 1),
+            f"{path.displacement[k]:.3f}",
+            f"{path.force[k]:.4f}",
+            f"{path.u_z[k]:.3f}",
+            f"{path.u_r[k]:.3f}",
+            f"{np.degrees(path.theta[k]):.3f}",
+            state,
+        )
+    return table
+
+
+def _summary(path: QuasiStaticPath, seconds: float) -> str:
+    first = phase_one(path)
+    n_failed = int(np.sum(~np.isfinite(path.force)))
+    n_snaps = int(np.sum(path.switched))
+    if first.stop == 0:
+        head = "No regular phase 1 (the first step snapped, failed or is unstable)"
+    else:
+        k = int(np.argmax(path.force[first]))
+        head = f"Phase 1 peak force {path.force[k]:.4f} N at U = {path.displacement[k]:.3f} mm"
+    tail = f"{n_snaps} snaps, {n_failed} failed of {len(path.force)} steps, {seconds:.1f} s"
+    return f"{head} ({tail})"
+
+
+def _figures(
+    model: Model, start: Solution, path: QuasiStaticPath, snaps: dict[str, int], out: Path
+) -> list[Path]:
+    """Write the three PNGs (``start``: the relaxed reference); returns their paths."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    from biplan.plot import cylinder, development, elongation_norm, force_displacement
+    from biplan.plot.response import COLUMN_FIGSIZE, FONT_SIZE, LINE_COLOR, SNAP_COLOR
+
+    def title(key: str) -> str:
+        k = snaps[key]
+        return f"({key}) $U$ = {path.displacement[k]:.2f} mm, $F$ = {path.force[k]:.2f} N"
+
+    files = [out / f"{n}.png" for n in ("force_displacement", "development", "cylinder")]
+    states = [path.solutions[k].q for k in snaps.values()]
+
+    fig, ax = plt.subplots(figsize=COLUMN_FIGSIZE, layout="constrained")
+    try:
+        force_displacement(path, ax=ax)
+        if np.isfinite(path.force[0]) and path.stable[0]:  # join the relaxed reference
+            u0, f0 = [start.displacement, path.displacement[0]], [start.force, path.force[0]]
+            ax.plot(u0, f0, "-", lw=1.2, color=LINE_COLOR, zorder=2)
+        ax.set_xlim(0.0, 1.04 * float(np.nanmax(path.displacement)))
+        ax.margins(y=0.1)
+        for key, k in snaps.items():
+            u, f = path.displacement[k], path.force[k]
+            ax.plot(u, f, "s", ms=3.5, color=SNAP_COLOR, zorder=4)
+            ax.annotate(
+                f"({key})",
+                (u, f),
+                textcoords="offset points",
+                xytext=(0, 5),
+                ha="center",
+                fontsize=FONT_SIZE,
+            )
+        if path.switched.any():
+            ax.legend(fontsize=FONT_SIZE - 1, frameon=False, loc="best")
+        fig.savefig(files[0], dpi=DPI)
+    finally:
+        plt.close(fig)
+
+    fig, axes = plt.subplots(1, 3, figsize=(7.0, 3.9), layout="constrained")
+    try:
+        norm = elongation_norm(model, states)
+        for i, (key, q) in enumerate(zip(snaps, states, strict=True)):
+            development(model, q, ax=axes[i], norm=norm, colorbar=i == 2)
+            axes[i].set_title(title(key), fontsize=FONT_SIZE)
+        # One frame for all panels, so that the three states compare at equal scale.
+        xlim = min(a.get_xlim()[0] for a in axes), max(a.get_xlim()[1] for a in axes)
+        ylim = min(a.get_ylim()[0] for a in axes), max(a.get_ylim()[1] for a in axes)
+        for i, a in enumerate(axes):
+            a.set(xlim=xlim, ylim=ylim)
+            if i:
+                a.set_ylabel("")
+                a.tick_params(labelleft=False)
+        fig.savefig(files[1], dpi=DPI)
+    finally:
+        plt.close(fig)
+
+    fig = plt.figure(figsize=(3.4, 3.6), layout="constrained")
+    try:
+        ax3 = fig.add_subplot(projection="3d")
+        azim, spacing = -60.0, 5.0 * model.tube.development.radius
+        side = np.radians(azim + 90.0)  # screen-horizontal direction at this azimuth
+        for i, (key, q) in enumerate(zip(snaps, states, strict=True)):
+            x, y = i * spacing * np.cos(side), i * spacing * np.sin(side)
+            cylinder(model, q, ax=ax3, azim=azim, offset=(x, y))
+            ax3.text(
+                x,
+                y,
+                -0.12 * model.tube.initial_length,
+                f"({key})",
+                ha="center",
+                va="top",
+                fontsize=FONT_SIZE,
+            )
+        fig.savefig(files[2], dpi=DPI)
+    finally:
+        plt.close(fig)
+    return files
+
+
+def demo(
+    config: Annotated[
+        Path | None,
+        typer.Argument(
+            help="TOML tube configuration; default: the semi-bistable MFT (SI Table calib).",
+            exists=True,
+            dir_okay=False,
+            show_default=False,
+        ),
+    ] = None,
+    out: Annotated[
+        Path, typer.Option("--out", "-o", help="Output directory (created if missing).")
+    ] = Path("biplan-demo"),
+    steps: Annotated[
+        int, typer.Option("--steps", "-n", min=2, help="Displacement steps from 0 to 9 mm.")
+    ] = 120,
+    quiet: Annotated[
+        bool, typer.Option("--quiet", "-q", help="No progress bar and no table.")
+    ] = False,
+) -> None:
+    """Stretch a tube to U = 9 mm under displacement control; write plots and a CSV.
+
+    Writes force_displacement.png, development.png, cylinder.png and demo.csv into --out.
+    """
+    from rich.progress import (
+        BarColumn,
+        MofNCompleteColumn,
+        Progress,
+        TextColumn,
+        TimeElapsedColumn,
+        TimeRemainingColumn,
+    )
+
+    import biplan
+
+    console = Console(highlight=False)
+    interactive = console.is_terminal and not quiet
+    t0 = time.perf_counter()
+    model = biplan.Model(_tube(config))  # validate the input before creating anything
+    try:
+        out.mkdir(parents=True, exist_ok=True)
+    except OSError as err:
+        raise typer.BadParameter(f"cannot create {out}: {err}", param_hint="--out") from None
+    relaxing = "Relaxing the reference state (compiles on first use)…"
+    with console.status(relaxing) if interactive else contextlib.nullcontext():
+        ref = biplan.relaxed_reference(model)
+    targets = np.linspace(MAX_DISPLACEMENT / steps, MAX_DISPLACEMENT, steps)
+    progress = Progress(
+        TextColumn("{task.description}"),
+        BarColumn(),
+        MofNCompleteColumn(),
+        TimeElapsedColumn(),
+        TimeRemainingColumn(),
+        console=console,
+        transient=True,
+        disable=not interactive,
+    )
+    with progress:
+        task = progress.add_task("Sweeping U", total=steps)
+        path = _sweep(model, targets, ref, lambda: progress.advance(task))
+    seconds = time.perf_counter() - t0
+
+    if not quiet:
+        console.print(_table(path))
+    console.print(_summary(path, seconds), soft_wrap=True)
+    try:
+        write_csv(path, out / "demo.csv")  # first: kept even if no step converged
+        files = _figures(model, ref, path, snapshots(path), out)
+    except OSError as err:
+        raise typer.BadParameter(f"cannot write into {out}: {err}", param_hint="--out") from None
+    if not quiet:
+        for f in [*files, out / "demo.csv"]:
+            console.print(f"wrote {escape(str(f))}")

@@ -1,0 +1,74 @@
+"""The ``biplan`` command (console script ``biplan = biplan.cli.main:main``).
+
+Subcommands live one per module in :mod:`biplan.cli` and are registered on :data:`app`.
+:func:`main` turns every :class:`~biplan.BiplanError` (invalid configuration, failed solve)
+into a one-line red message on stderr and exit code 2, without a traceback.
+"""
+
+from __future__ import annotations
+
+from typing import Annotated
+
+import typer
+from rich.console import Console
+from rich.markup import escape
+
+from biplan._errors import BiplanError
+from biplan.cli import demo
+
+__all__ = ["EXIT_BIPLAN_ERROR", "app", "main"]
+
+#: Exit status of a run stopped by a :class:`~biplan.BiplanError` (as for usage errors).
+EXIT_BIPLAN_ERROR = 2
+
+app = typer.Typer(
+    name="biplan",
+    help="BiPlan simulation of multistable Mixed Folded Tubes (units: mm, N, s).",
+    no_args_is_help=True,
+    add_completion=False,
+    pretty_exceptions_show_locals=False,
+)
+app.command("demo")(demo.demo)
+
+
+def _show_version(value: bool) -> None:
+    if value:
+        from biplan import __version__
+
+        typer.echo(f"biplan {__version__}")
+        raise typer.Exit()
+
+
+@app.callback()
+def _root(
+    version: Annotated[
+        bool,
+        typer.Option(
+            "--version", callback=_show_version, is_eager=True, help="Print the version and exit."
+        ),
+    ] = False,
+) -> None:
+    """BiPlan simulation of multistable Mixed Folded Tubes (units: mm, N, s)."""
+
+
+def main(argv: list[str] | None = None) -> None:
+    """Run the CLI on ``argv`` (default ``sys.argv[1:]``); always exits via SystemExit.
+
+    Parameters
+    ----------
+    argv : list of str, optional
+        Command-line arguments without the program name.
+
+    Raises
+    ------
+    SystemExit
+        With the command's exit status; :data:`EXIT_BIPLAN_ERROR` after a
+        :class:`~biplan.BiplanError`, whose message is printed in red on stderr.
+    """
+    try:
+        app(args=argv, prog_name="biplan")
+    except BiplanError as err:
+        Console(stderr=True, highlight=False).print(
+            f"[bold red]error:[/] {escape(str(err))}", soft_wrap=True
+        )
+        raise SystemExit(EXIT_BIPLAN_ERROR) from None

@@ -1,0 +1,151 @@
+"""Response curves of a quasi-static sweep: force against prescribed displacement.
+
+Contract of every plotting function in :mod:`biplan.plot`: ``f(result, *, ax=None, ...) ->
+Axes``. Given an ``ax`` the function draws into it; without one it creates a journal-column
+figure (3.4 × 2.6 in, 8 pt text). It never calls ``show()``, never changes the matplotlib
+backend and never keeps global state; the caller owns the figure.
+
+Line styles of :func:`force_displacement`: contiguous stable stretches of the path are solid,
+unstable stretches dashed; a displacement-controlled snap (the sweep left an equilibrium for a
+stable one on another branch, ``path.switched``) breaks the curve, is joined to the previous
+step by a thin dotted drop and marked with an open circle. Failed steps (NaN force) are gaps.
+"""
+
+from __future__ import annotations
+
+from typing import TYPE_CHECKING, Any
+
+import numpy as np
+
+if TYPE_CHECKING:
+    from matplotlib.axes import Axes
+
+    from biplan.analysis.quasistatic import QuasiStaticPath
+
+__all__ = ["COLUMN_FIGSIZE", "FONT_SIZE", "force_displacement"]
+
+#: Journal single-column figure size [in] and text size [pt].
+COLUMN_FIGSIZE = (3.4, 2.6)
+FONT_SIZE = 8
+
+#: Colour-blind-safe default line colour (Okabe–Ito blue) and snap-marker colour (vermillion).
+LINE_COLOR = "#0072B2"
+SNAP_COLOR = "#D55E00"
+
+
+def _new_axes(ax: Axes | None, figsize: tuple[float, float], **subplot_kw: Any) -> Axes:
+    """Return ``ax`` or the single Axes of a new constrained-layout figure of ``figsize`` [in]."""
+    if ax is not None:
+        return ax
+    import matplotlib.pyplot as plt
+
+    fig = plt.figure(figsize=figsize, layout="constrained")
+    return fig.add_subplot(**subplot_kw)
+
+
+def _style(ax: Axes) -> None:
+    """Apply the journal text size to an Axes' tick labels, axis labels and title."""
+    ax.tick_params(labelsize=FONT_SIZE)
+    ax.xaxis.label.set_fontsize(FONT_SIZE)
+    ax.yaxis.label.set_fontsize(FONT_SIZE)
+    ax.title.set_fontsize(FONT_SIZE)
+    zaxis = getattr(ax, "zaxis", None)
+    if zaxis is not None:
+        zaxis.label.set_fontsize(FONT_SIZE)
+
+
+def _runs(mask: np.ndarray) -> list[tuple[int, int]]:
+    """Half-open index ranges [i, j) of the contiguous True runs of a boolean mask."""
+    edges = np.diff(np.concatenate([[0], mask.astype(np.int8), [0]]))
+    return list(zip(np.flatnonzero(edges == 1), np.flatnonzero(edges == -1), strict=True))
+
+
+def force_displacement(
+    path: QuasiStaticPath,
+    *,
+    ax: Axes | None = None,
+    normalise: float | None = None,
+    color: str = LINE_COLOR,
+    label: str | None = None,
+) -> Axes:
+    """Plot the end force F [N] against the prescribed displacement U [mm] of a sweep.
+
+    Parameters
+    ----------
+    path : QuasiStaticPath
+        Result of :func:`biplan.analysis.quasistatic.displacement_sweep`; uses its
+        ``displacement``, ``force``, ``stable`` and ``switched`` arrays.
+    ax : Axes, optional
+        Axes to draw into; a new 3.4 × 2.6 in figure when omitted.
+    normalise : float, optional
+        Length l₀ [mm] (e.g. ``tube.initial_length``); the horizontal axis then shows the
+        dimensionless U / l₀ instead of U [mm].
+    color : str
+        Line colour of the path.
+    label : str, optional
+        Legend label of the path (attached to its first stretch).
+
+    Returns
+    -------
+    Axes
+        The Axes drawn into.
+
+    Raises
+    ------
+    ValueError
+        If ``normalise`` is given and not a finite length > 0.
+    """
+    u = np.asarray(path.displacement, dtype=float)
+    f = np.asarray(path.force, dtype=float)
+    stable = np.asarray(path.stable, dtype=bool)
+    switched = np.asarray(path.switched, dtype=bool)
+    if normalise is not None:
+        if not (np.isfinite(normalise) and normalise > 0):
+            raise ValueError(f"normalise must be a finite length > 0 mm, got {normalise!r}")
+        u = u / normalise
+    ax = _new_axes(ax, COLUMN_FIGSIZE)
+
+    ok = np.isfinite(f) & np.isfinite(u)
+    n = len(u)
+    first_label = label
+    # Stable stretches: runs of converged stable steps, cut where the sweep snapped.
+    for i, j in _runs(ok & stable):
+        cuts = [k for k in range(i + 1, j) if switched[k]]
+        for a, b in zip([i, *cuts], [*cuts, j], strict=True):
+            ax.plot(u[a:b], f[a:b], "-", color=color, lw=1.2, label=first_label)
+            first_label = None
+    # Unstable stretches, joined to the converged neighbours they leave and enter (not across
+    # a snap, which is drawn as a drop below).
+    for i, j in _runs(ok & ~stable):
+        lo = i - 1 if i > 0 and ok[i - 1] and not switched[i] else i
+        hi = j + 1 if j < n and ok[j] and not switched[j] else j
+        ax.plot(u[lo:hi], f[lo:hi], "--", color=color, lw=1.2, label=first_label)
+        first_label = None
+
+    snaps = np.flatnonzero(switched & ok)
+    for k in snaps:
+        prev = k - 1
+        while prev >= 0 and not ok[prev]:
+            prev -= 1
+        if prev >= 0:
+            ax.plot([u[prev], u[k]], [f[prev], f[k]], ":", color="0.5", lw=0.8)
+    if snaps.size:
+        ax.plot(
+            u[snaps],
+            f[snaps],
+            "o",
+            mfc="white",
+            mec=SNAP_COLOR,
+            ms=3.5,
+            mew=0.9,
+            ls="none",
+            label="branch switch",
+            zorder=3,
+        )
+
+    ax.set_xlabel(r"$U/l_0$ [–]" if normalise is not None else r"$U$ [mm]")
+    ax.set_ylabel(r"$F$ [N]")
+    ax.axhline(0.0, color="0.8", lw=0.6, zorder=0)
+    ax.margins(x=0.02)
+    _style(ax)
+    return ax

@@ -1,0 +1,118 @@
+"""The ``biplan`` command, run in-process."""
+
+from __future__ import annotations
+
+import csv
+from pathlib import Path
+
+import numpy as np
+import pytest
+from typer.testing import CliRunner
+
+import biplan
+from biplan.cli.main import EXIT_BIPLAN_ERROR, app, main
+
+runner = CliRunner()
+COLUMNS = [
+    "displacement",
+    "force",
+    "u_z",
+    "u_r",
+    "theta",
+    "energy",
+    "min_eigenvalue",
+    "stable",
+    "status",
+]
+PNG_SIGNATURE = b"\x89PNG\r\n\x1a\n"
+
+
+@pytest.fixture(scope="module")
+def demo_run(tmp_path_factory: pytest.TempPathFactory):
+    out = tmp_path_factory.mktemp("demo") / "out"
+    result = runner.invoke(app, ["demo", "--out", str(out), "--steps", "12", "--quiet"])
+    return result, out
+
+
+def test_help() -> None:
+    result = runner.invoke(app, ["--help"])
+    assert result.exit_code == 0
+    assert "demo" in result.output
+    result = runner.invoke(app, ["demo", "--help"])
+    assert result.exit_code == 0
+    for option in ("--out", "--steps", "--quiet"):
+        assert option in result.output
+
+
+def test_version() -> None:
+    result = runner.invoke(app, ["--version"])
+    assert result.exit_code == 0
+    assert biplan.__version__ in result.output
+
+
+def test_demo_exits_cleanly_and_summarises(demo_run) -> None:
+    result, _ = demo_run
+    assert result.exit_code == 0, result.output
+    assert result.exception is None
+    assert "Phase 1 peak force" in result.output and " N at U = " in result.output
+    assert "┏" not in result.output  # --quiet: no table
+
+
+def test_demo_writes_pngs(demo_run) -> None:
+    _, out = demo_run
+    for name in ("force_displacement.png", "development.png", "cylinder.png"):
+        data = (out / name).read_bytes()
+        assert data.startswith(PNG_SIGNATURE), name
+        assert len(data) > 10_000, name
+
+
+def test_demo_csv(demo_run) -> None:
+    _, out = demo_run
+    with (out / "demo.csv").open(newline="") as fh:
+        rows = list(csv.reader(fh))
+    assert rows[0] == COLUMNS
+    body = rows[1:]
+    assert len(body) == 12
+    u = np.array([float(r[0]) for r in body])
+    np.testing.assert_allclose(u, np.linspace(0.75, 9.0, 12))
+    assert {r[7] for r in body} <= {"0", "1"}
+    assert {r[8] for r in body} <= {s.name for s in biplan.Status}
+    converged = [r for r in body if r[8] == "CONVERGED"]
+    assert converged, "no converged step"
+    # Phase 1 starts on the stable closed branch with a positive (tensile) reaction.
+    assert body[0][7] == "1" and float(body[0][1]) > 0
+
+
+def test_biplan_error_is_a_red_message_not_a_traceback(
+    monkeypatch: pytest.MonkeyPatch, tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    def broken(*_: object, **__: object) -> biplan.Tube:
+        raise biplan.ConfigError("radius", -1.0, "> 0 mm")
+
+    monkeypatch.setattr(biplan.designs, "semi_bistable", broken)
+    with pytest.raises(SystemExit) as exit_info:
+        main(["demo", "--out", str(tmp_path / "out"), "--steps", "2", "--quiet"])
+    assert exit_info.value.code == EXIT_BIPLAN_ERROR == 2
+    assert not (tmp_path / "out").exists()  # the input is checked before anything is written
+    err = capsys.readouterr().err
+    assert "error:" in err and "invalid radius = -1.0: must be > 0 mm" in err
+    assert "Traceback" not in err
+
+
+def test_usage_errors_exit_2(tmp_path: Path) -> None:
+    result = runner.invoke(app, ["demo", "--steps", "1", "--out", str(tmp_path)])
+    assert result.exit_code == 2
+    result = runner.invoke(app, ["demo", str(tmp_path / "missing.toml"), "--out", str(tmp_path)])
+    assert result.exit_code == 2
+    blocker = tmp_path / "a-file"
+    blocker.write_text("")
+    result = runner.invoke(app, ["demo", "--out", str(blocker / "sub"), "--steps", "2"])
+    assert result.exit_code == 2
+    assert "--out" in result.output and "cannot create" in result.output
+
+
+def test_main_help_exits_0(capsys: pytest.CaptureFixture[str]) -> None:
+    with pytest.raises(SystemExit) as exit_info:
+        main(["--help"])
+    assert exit_info.value.code == 0
+    assert "demo" in capsys.readouterr().out

@@ -1,0 +1,177 @@
+"""Plotting functions run headless on small results and draw what they promise."""
+
+from __future__ import annotations
+
+from types import SimpleNamespace
+
+import matplotlib
+
+matplotlib.use("Agg")
+
+import matplotlib.pyplot as plt
+import numpy as np
+import pytest
+from matplotlib.axes import Axes
+from matplotlib.collections import LineCollection
+
+import biplan
+from biplan.analysis.quasistatic import displacement_sweep
+from biplan.plot import cylinder, development, elongation_norm, fold_lines, force_displacement
+from biplan.plot.tube import ARC_SUBDIVISIONS, ELEMENT_NODES, element_strips
+
+
+@pytest.fixture(scope="module")
+def model() -> biplan.Model:
+    return biplan.Model(biplan.designs.semi_bistable())
+
+
+@pytest.fixture(scope="module")
+def path(model: biplan.Model):
+    """A short sweep through phase 1 of the semi-bistable tube (kernels compile once)."""
+    return displacement_sweep(model, np.linspace(0.1, 2.5, 8))
+
+
+@pytest.fixture(scope="module")
+def solved_q(path) -> np.ndarray:
+    k = int(np.flatnonzero(np.isfinite(path.force))[-1])
+    return path.solutions[k].q
+
+
+@pytest.fixture(autouse=True)
+def _close_figures():
+    yield
+    plt.close("all")
+
+
+def _n_fields(model: biplan.Model) -> int:
+    return sum(len(w0) for w0, _, _ in model.circular_fields(model.zeros()))
+
+
+# --- force-displacement ------------------------------------------------------------------------
+def test_force_displacement_on_sweep(path) -> None:
+    ax = force_displacement(path)
+    assert isinstance(ax, Axes)
+    assert "[mm]" in ax.get_xlabel() and "[N]" in ax.get_ylabel()
+    assert tuple(ax.figure.get_size_inches()) == pytest.approx((3.4, 2.6))
+    drawn = np.concatenate([ln.get_xdata() for ln in ax.lines if ln.get_linestyle() == "-"])
+    finite = path.displacement[np.isfinite(path.force)]
+    assert set(np.round(finite, 12)) <= set(np.round(drawn.astype(float), 12))
+
+
+def test_force_displacement_styles_and_normalisation() -> None:
+    """Stable runs solid, unstable dashed, snaps marked, failed steps left out."""
+    fake = SimpleNamespace(
+        displacement=np.arange(8.0),
+        force=np.array([0.0, 1.0, 2.0, 1.5, 1.0, np.nan, 0.5, 1.0]),
+        stable=np.array([True, True, True, False, False, False, True, True]),
+        switched=np.array([False, False, False, False, False, False, True, False]),
+    )
+    _, ax = plt.subplots()
+    assert force_displacement(fake, ax=ax, normalise=4.0) is ax
+    assert "l_0" in ax.get_xlabel()
+    dashed = [ln for ln in ax.lines if ln.get_linestyle() == "--"]
+    assert len(dashed) == 1
+    np.testing.assert_allclose(dashed[0].get_xdata(), [0.5, 0.75, 1.0])
+    markers = [ln for ln in ax.lines if ln.get_marker() == "o"]
+    assert len(markers) == 1 and list(markers[0].get_xdata()) == [1.5]
+    with pytest.raises(ValueError, match="normalise"):
+        force_displacement(fake, normalise=0.0)
+
+
+# --- development ---------------------------------------------------------------------------------
+@pytest.mark.parametrize("state", ["reference", "solved"])
+def test_development_draws_every_fold_field(model, solved_q, state) -> None:
+    q = model.zeros() if state == "reference" else solved_q
+    ax = development(model, q, reference=True)
+    assert isinstance(ax, Axes)
+    gids = [c.get_gid() or "" for c in ax.collections if isinstance(c, LineCollection)]
+    helical = [g for g in gids if g.startswith("helical-fold")]
+    circular = [g for g in gids if g.startswith("circular-field")]
+    assert len(helical) == model.layout.n_modules == 6
+    assert len(circular) == _n_fields(model) == 9
+    assert len(helical) + len(circular) == model.layout.n_modules + _n_fields(model)
+    assert any(c.get_gid() == "reference" for c in ax.collections)
+    assert ax.get_aspect() == 1.0
+    assert "s" in ax.get_xlabel() and "z" in ax.get_ylabel()
+    labels = [a.get_ylabel() for a in ax.figure.axes if a is not ax]
+    assert any("w" in lab and "[mm]" in lab for lab in labels)
+
+
+def test_development_colours_follow_elongation(model, solved_q) -> None:
+    norm = elongation_norm(model, [model.zeros(), solved_q])
+    ax = development(model, solved_q, norm=norm, colorbar=False)
+    assert len(ax.figure.axes) == 1
+    lines = {gid: (start, end) for gid, start, end, _ in fold_lines(model, solved_q)}
+    for c in ax.collections:
+        if (c.get_gid() or "") in lines:
+            start, end = lines[c.get_gid()]
+            values = np.asarray(c.get_array())
+            assert values.min() >= min(start[2], end[2]) - 1e-12
+            assert values.max() <= max(start[2], end[2]) + 1e-12
+            assert c.norm is norm
+
+
+def test_fold_lines_match_kinematics(model, solved_q) -> None:
+    kin = model.kinematics(solved_q)
+    nodes = model.global_nodes(solved_q)
+    lines = fold_lines(model, solved_q)
+    for n in range(model.layout.n_modules):
+        gid, start, end, _ = lines[n]
+        assert gid == f"helical-fold-{n}"
+        np.testing.assert_allclose(start[:2], 0.5 * (nodes[n, 3] + nodes[n, 4]))
+        np.testing.assert_allclose(end[:2], 0.5 * (nodes[n, 2] + nodes[n, 5]))
+        np.testing.assert_allclose([start[2], end[2]], kin.helical[n])
+    circular = np.array([[s[2], e[2]] for _, s, e, _ in lines[model.layout.n_modules :]])
+    np.testing.assert_allclose(circular[:, 0], kin.field_start)
+    np.testing.assert_allclose(circular[:, 1], kin.field_end)
+
+
+def test_development_phase_view(model, solved_q) -> None:
+    ax = development(model, solved_q, color_by="phase")
+    cbar = ax.figure.axes[-1]
+    assert [t.get_text() for t in cbar.get_yticklabels()] == ["closed", "spinodal", "open"]
+    with pytest.raises(ValueError, match="color_by"):
+        development(model, solved_q, color_by="energy")
+
+
+# --- cylinder -------------------------------------------------------------------------------------
+def _area(poly: np.ndarray) -> float:
+    z, s = poly[:, 0], poly[:, 1]
+    return 0.5 * abs(float(np.sum(z * np.roll(s, -1) - np.roll(z, -1) * s)))
+
+
+@pytest.mark.parametrize("state", ["reference", "solved"])
+def test_element_strips_tile_the_element(model, solved_q, state) -> None:
+    q = model.zeros() if state == "reference" else solved_q
+    nodes = model.global_nodes(q)
+    width = model.tube.development.circumference / ARC_SUBDIVISIONS
+    for n in range(model.layout.n_modules):
+        for idx in ELEMENT_NODES:
+            corners = nodes[n, list(idx)]
+            strips = element_strips(corners, width)
+            assert sum(_area(p) for p in strips) == pytest.approx(_area(corners), rel=1e-12)
+            for p in strips:
+                assert 3 <= len(p) <= 6
+                assert np.ptp(p[:, 1]) <= width * (1 + 1e-12)
+                k = np.floor(p[:, 1].min() / width + 1e-9)  # strips sit on the global grid
+                assert p[:, 1].max() <= (k + 1) * width + 1e-9
+
+
+def test_cylinder_draws_wrapped_elements(model, solved_q) -> None:
+    ax = cylinder(model, model.zeros())
+    assert isinstance(ax, Axes) and ax.name == "3d"
+    polys = [c for c in ax.collections if c.get_gid() == "cylinder"]
+    assert len(polys) == 1
+    # Element 1 spans the full turn, element 2 the helical span H2 (plus boundary strips).
+    dev = model.tube.development
+    per_module = ARC_SUBDIVISIONS * (1 + dev.helical_span / dev.circumference)
+    n_facets = len(polys[0].get_facecolor())
+    assert per_module * model.layout.n_modules <= n_facets <= (per_module + 2) * 6
+    r = model.tube.development.radius
+    assert ax.get_xlim() == pytest.approx((-1.8 * r, r), abs=1e-6)
+    assert ax.get_zlim()[1] == pytest.approx(model.tube.initial_length, rel=1e-6)
+    # A second state beside the first: the view grows to hold both.
+    cylinder(model, solved_q, ax=ax, offset=(5 * r, 0.0))
+    assert ax.get_xlim()[1] == pytest.approx(6 * r, abs=1e-6)
+    assert ax.get_zlim()[1] > model.tube.initial_length
+    ax.figure.canvas.draw()  # renders headless
