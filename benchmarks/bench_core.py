@@ -50,8 +50,12 @@ def main() -> None:
         imp, cold = _start("off")
         _start(cache)  # populate
         imp_w, warm_start = _start(cache)
-    print(f"cold start (no cache):     import {imp:.2f} s, model+reference+solve+classify {cold:.2f} s")
-    print(f"cache-warm start:          import {imp_w:.2f} s, model+reference+solve+classify {warm_start:.2f} s")
+    print(
+        f"cold start (no cache):     import {imp:.2f} s, model+reference+solve+classify {cold:.2f} s"
+    )
+    print(
+        f"cache-warm start:          import {imp_w:.2f} s, model+reference+solve+classify {warm_start:.2f} s"
+    )
 
     import scipy.optimize
 
@@ -73,7 +77,9 @@ def main() -> None:
     n_ok = 0
     for u in targets:
         load = biplan.Load.of_displacement(u)
-        res = scipy.optimize.root(lambda zz, ld=load: model.residual(zz, ld), z, method="hybr", tol=1e-12)
+        res = scipy.optimize.root(
+            lambda zz, ld=load: model.residual(zz, ld), z, method="hybr", tol=1e-12
+        )
         n_ok += int(np.max(np.abs(model.residual(res.x, load))) < 1e-8)
         z = res.x
     t_base = (time.perf_counter() - t0) / len(targets)

@@ -125,7 +125,7 @@ def field_energy(w0: Array, wl: Array, length: Array, c: Coefficients) -> Array:
     straddles = ((w1 > lo) & (w1 < hi)) | ((w2 > lo) & (w2 < hi))
     one_piece = (~straddles) | (d < SPLIT_TOLERANCE)
     m = 0.5 * (w0 + wl)
-    whole = energy_density(m, c) + d**2 * stiffness(m, c) / 24.0
+    whole = energy_density(m, c) + (wl - w0) ** 2 * stiffness(m, c) / 24.0  # smooth at wl = w0
     ks = (k1, k2, k3)
     total = 0.0
     for j in range(3):

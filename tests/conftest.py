@@ -1,0 +1,109 @@
+"""Shared fixtures of the physics test-suite.
+
+Every distinct tube *layout* (number of modules, base fold, readings) compiles its JAX kernels
+once, so the suite reuses four layouts through session-scoped fixtures:
+
+* ``model1``: one standard module on a base circular fold (semi-bistable laws),
+* ``model2``: two modules (S, M) on a base fold: TPC at the base, SPC between them,
+* ``model6``: the 6-module semi-bistable design of the SI calibration table,
+* ``model4``: the 4-module fully bistable design (no base fold).
+
+Law coefficients are traced parameters, so tubes of the same layout with other laws (e.g. a
+stiff linear helical fold) share the compiled kernels.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+import biplan  # enables JAX float64
+
+#: Geometry of the SI calibration table (MODEL.md §3, §14).
+GEOMETRY = {"radius": 2.0, "pitch": 3.6, "helical_angle": 60.0}
+#: Circular law of the calibration table (MODEL.md §1, CHOICE L1).
+CIRCULAR = biplan.TrilinearLaw(stiffness=(0.9, -0.2, 0.6), transitions=(0.2, 1.3))
+HELICAL = biplan.LinearLaw(stiffness=1.3)
+
+
+def make_tube(n_modules: int, helical=HELICAL, circular=CIRCULAR, base_fold: bool = True):
+    """A uniform tube of the calibration geometry (default options)."""
+    return biplan.Tube.uniform(
+        **GEOMETRY,
+        n_modules=n_modules,
+        helical=helical,
+        circular=circular,
+        base_fold=base_fold,
+    )
+
+
+@pytest.fixture
+def rng() -> np.random.Generator:
+    """A seeded generator (the suite must be deterministic)."""
+    return np.random.default_rng(20240611)
+
+
+@pytest.fixture(scope="session")
+def model1() -> biplan.Model:
+    return biplan.Model(make_tube(1))
+
+
+@pytest.fixture(scope="session")
+def model2() -> biplan.Model:
+    return biplan.Model(make_tube(2))
+
+
+@pytest.fixture(scope="session")
+def model6() -> biplan.Model:
+    return biplan.Model(biplan.designs.semi_bistable())
+
+
+@pytest.fixture(scope="session")
+def model4() -> biplan.Model:
+    return biplan.Model(biplan.designs.fully_bistable())
+
+
+@pytest.fixture(scope="session")
+def reference6(model6) -> biplan.Solution:
+    return biplan.relaxed_reference(model6)
+
+
+def breakpoints_of(model: biplan.Model) -> tuple[np.ndarray, np.ndarray]:
+    """Breakpoints (w1, w2) of every helical law (N, 2) and circular law (Nc, 2)."""
+    h = np.asarray([law.coefficients[3:] for law in model.tube.helical_laws], dtype=float)
+    c = np.asarray([law.coefficients[3:] for law in model.tube.circular_laws], dtype=float)
+    return h.reshape(-1, 2), c.reshape(-1, 2)
+
+
+def min_breakpoint_distance(model: biplan.Model, q: np.ndarray) -> float:
+    """Smallest distance [mm] of any fold-field boundary elongation from its law's breakpoints."""
+    hb, cb = breakpoints_of(model)
+    kin = model.kinematics(q)
+    d = [np.abs(kin.helical[:, :, None] - hb[:, None, :]).min(initial=np.inf)]
+    for c, (w0, w1, _) in enumerate(model.circular_fields(q)):
+        ends = np.concatenate([w0, w1])
+        d.append(np.abs(ends[:, None] - cb[c][None, :]).min(initial=np.inf))
+    return float(min(d))
+
+
+def random_configuration(
+    model: biplan.Model,
+    rng: np.random.Generator,
+    amplitude: float = 0.03,
+    gamma: tuple[float, float] = (0.1, 0.8),
+    clearance: float = 1e-3,
+) -> np.ndarray:
+    """Random q (module coordinates ~ N(0, amplitude), γ uniform in ``gamma``) whose field
+    boundary elongations all stay ``clearance`` away from the law breakpoints (the Hessian is
+    discontinuous there)."""
+    n = model.layout.n_modules
+    for _ in range(200):
+        q = np.concatenate(
+            [
+                rng.normal(0.0, amplitude, 3 * n),
+                rng.uniform(*gamma, model.n_coordinates - 3 * n),
+            ]
+        )
+        if min_breakpoint_distance(model, q) > clearance:
+            return q
+    raise RuntimeError("could not draw a configuration away from the breakpoints")
