@@ -34,11 +34,22 @@ from biplan.laws import LinearLaw as LinearLaw
 from biplan.laws import TransitionReading as TransitionReading
 from biplan.laws import TrilinearLaw as TrilinearLaw
 from biplan.options import ModelOptions as ModelOptions
+from biplan.solvers import ArcLength as ArcLength
+from biplan.solvers import Control as Control
+from biplan.solvers import GeneralizedAlpha as GeneralizedAlpha
+from biplan.solvers import LoadHistory as LoadHistory
+from biplan.solvers import LoadStepping as LoadStepping
 from biplan.solvers import Newton as Newton
+from biplan.solvers import Path as Path
+from biplan.solvers import PathStatus as PathStatus
 from biplan.solvers import Solution as Solution
 from biplan.solvers import Status as Status
+from biplan.solvers import Trajectory as Trajectory
+from biplan.solvers import TrajectoryStatus as TrajectoryStatus
+from biplan.solvers import integrate as integrate
 from biplan.solvers import relaxed_reference as relaxed_reference
 from biplan.solvers import solve_equilibrium as solve_equilibrium
+from biplan.solvers import trace_path as trace_path
 
 try:
     __version__ = version("biplan")
@@ -46,19 +57,28 @@ except PackageNotFoundError:  # pragma: no cover
     __version__ = "0.0.0+unknown"
 
 __all__ = [
+    "ArcLength",
     "BiplanError",
     "ConfigError",
+    "Control",
     "ConvergenceError",
     "Development",
     "FoldRef",
+    "GeneralizedAlpha",
     "LinearLaw",
     "Load",
+    "LoadHistory",
+    "LoadStepping",
     "Model",
     "ModelOptions",
     "Newton",
+    "Path",
+    "PathStatus",
     "Solution",
     "Stability",
     "Status",
+    "Trajectory",
+    "TrajectoryStatus",
     "TransitionReading",
     "TrilinearLaw",
     "Tube",
@@ -66,8 +86,10 @@ __all__ = [
     "__version__",
     "classify",
     "designs",
+    "integrate",
     "load_config",
     "reduced_hessian",
     "relaxed_reference",
     "solve_equilibrium",
+    "trace_path",
 ]

@@ -33,7 +33,20 @@ from biplan.geometry.tube import Tube, TubeLayout
 from biplan.laws import _kernels as law_kernels
 from biplan.options import ContactForm, ModelOptions
 
-__all__ = ["Load", "Model", "ModelParams", "StateData", "TubeLayout", "kernels"]
+__all__ = [
+    "Load",
+    "Model",
+    "ModelParams",
+    "StateData",
+    "TubeLayout",
+    "guide_values",
+    "kernels",
+    "kkt_jacobian",
+    "phase_fractions",
+    "residual",
+    "sizes",
+    "state_data",
+]
 
 Array = Any
 
@@ -121,6 +134,24 @@ def _energies(layout: TubeLayout, p: ModelParams, kin: chain.Kinematics) -> tupl
 def fold_energies(layout: TubeLayout, p: ModelParams, q: Array) -> tuple[Array, Array]:
     """Strain energy [N·mm] of every helical fold (N,) and every circular fold (Nc,)."""
     return _energies(layout, p, _kin(layout, p, q))
+
+
+def phase_fractions(layout: TubeLayout, p: ModelParams, q: Array) -> Array:
+    """Fraction of each fold's length on the closed, spinodal and open branch of its law,
+    (N + Nc, 3), helical folds then circular (length-weighted over a connector's fields)."""
+    kin = _kin(layout, p, q)
+    w = kin.helical
+    hel = law_kernels.phase_fractions(w[:, 0], w[:, 1], _coeffs(p.helical.T))
+    if layout.n_connectors == 0:
+        return hel
+    t = chain.tables(layout)
+    per = law_kernels.phase_fractions(
+        kin.field_start, kin.field_end, _coeffs(p.circular[t.field_conn].T)
+    )
+    length = kin.field_length
+    num = jax.ops.segment_sum(per * length[:, None], t.field_conn, layout.n_connectors)
+    den = jax.ops.segment_sum(length, t.field_conn, layout.n_connectors)
+    return jnp.concatenate([hel, num / den[:, None]], axis=0)
 
 
 def energy(layout: TubeLayout, p: ModelParams, q: Array) -> Array:
@@ -290,6 +321,11 @@ def state_data(layout: TubeLayout, p: ModelParams, z: Array, load: Load) -> Stat
         constraint_jacobian=jc,
         gaps=_gaps(layout, p, kin),
     )
+
+
+def sizes(layout: TubeLayout) -> tuple[int, int, int]:
+    """(n_q, n_g, n_c): coordinates, guide and contact multipliers of a layout."""
+    return _sizes(layout)
 
 
 def _sizes(layout: TubeLayout) -> tuple[int, int, int]:

@@ -14,7 +14,7 @@ from rich.console import Console
 from rich.markup import escape
 
 from biplan._errors import BiplanError
-from biplan.cli import demo
+from biplan.cli import calibrate, demo, plot, respond, validate
 
 __all__ = ["EXIT_BIPLAN_ERROR", "app", "main"]
 
@@ -29,6 +29,10 @@ app = typer.Typer(
     pretty_exceptions_show_locals=False,
 )
 app.command("demo")(demo.demo)
+app.add_typer(calibrate.app, name="calibrate")
+app.command("validate")(validate.validate)
+app.command("plot")(plot.plot)
+app.command("respond")(respond.respond)
 
 
 def _show_version(value: bool) -> None:

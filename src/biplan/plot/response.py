@@ -9,6 +9,8 @@ Line styles of :func:`force_displacement`: contiguous stable stretches of the pa
 unstable stretches dashed; a displacement-controlled snap (the sweep left an equilibrium for a
 stable one on another branch, ``path.switched``) breaks the curve, is joined to the previous
 step by a thin dotted drop and marked with an open circle. Failed steps (NaN force) are gaps.
+States flagged ``is_event`` (located limit points and bifurcations of a
+:class:`~biplan.solvers.results.Path`) are marked with crosses.
 """
 
 from __future__ import annotations
@@ -61,7 +63,7 @@ def _runs(mask: np.ndarray) -> list[tuple[int, int]]:
 
 
 def force_displacement(
-    path: QuasiStaticPath,
+    path: QuasiStaticPath | Any,
     *,
     ax: Axes | None = None,
     normalise: float | None = None,
@@ -72,9 +74,9 @@ def force_displacement(
 
     Parameters
     ----------
-    path : QuasiStaticPath
-        Result of :func:`biplan.analysis.quasistatic.displacement_sweep`; uses its
-        ``displacement``, ``force``, ``stable`` and ``switched`` arrays.
+    path : QuasiStaticPath, Path, Trajectory or any object with the arrays
+        ``displacement`` [mm], ``force`` [N] and ``stable``, and optionally ``switched``
+        (branch switches) and ``is_event`` (located limit points).
     ax : Axes, optional
         Axes to draw into; a new 3.4 × 2.6 in figure when omitted.
     normalise : float, optional
@@ -98,7 +100,9 @@ def force_displacement(
     u = np.asarray(path.displacement, dtype=float)
     f = np.asarray(path.force, dtype=float)
     stable = np.asarray(path.stable, dtype=bool)
-    switched = np.asarray(path.switched, dtype=bool)
+    switched = np.asarray(getattr(path, "switched", np.zeros(len(u), bool)), dtype=bool)
+    flags = getattr(path, "is_event", getattr(path, "limit_point", None))
+    events = np.asarray(np.zeros(len(u), bool) if flags is None else flags, dtype=bool)
     if normalise is not None:
         if not (np.isfinite(normalise) and normalise > 0):
             raise ValueError(f"normalise must be a finite length > 0 mm, got {normalise!r}")
@@ -143,6 +147,18 @@ def force_displacement(
             zorder=3,
         )
 
+    if events.any():
+        ax.plot(
+            u[events],
+            f[events],
+            "x",
+            color=SNAP_COLOR,
+            ms=4,
+            mew=1.0,
+            ls="none",
+            label="limit point",
+            zorder=4,
+        )
     ax.set_xlabel(r"$U/l_0$ [–]" if normalise is not None else r"$U$ [mm]")
     ax.set_ylabel(r"$F$ [N]")
     ax.axhline(0.0, color="0.8", lw=0.6, zorder=0)

@@ -1,9 +1,10 @@
-"""Pictures of a tube configuration: its planar development and the wrapped 3D cylinder.
+"""The planar development of a tube configuration, and the fold colouring shared by all views.
 
 :func:`development` draws the deformed development (s horizontal, z vertical, both in mm): the
 rigid elements as light polygons (element 1 = ABCD, element 2 = EFG, global nodes of SI Eq.
 global_module_min) and every fold as a line coloured by its local elongation w [mm], which is
-linear along each BiPlan field (SI Eq. 17):
+linear along each BiPlan field (SI Eq. 17), or by the branch of its law (closed, spinodal,
+open):
 
 * helical fold of module n: from the midpoint of D/E (w = w0) to that of C/F (w = wa);
 * circular fold: one line per field, midway between the facing edges (the upper module's
@@ -11,66 +12,63 @@ linear along each BiPlan field (SI Eq. 17):
   w_end over its circumferential range.
 
 Each fold field is one :class:`~matplotlib.collections.LineCollection` of short sub-segments
-(gid ``"helical-fold-n"`` or ``"circular-field-c-j"``), so the colour follows w along it.
+(gid ``"helical-fold-n"`` or ``"circular-field-c-j"``), so the colour follows w along it. On
+request the guides (the rails along n_sp through the reference nodes C and F, SI Eq. 11) and
+the rotation centres (pivots A and G) are drawn too. :func:`development_panels` puts several
+states (e.g. the reference and a deformed one) side by side on one colour scale.
 
-:func:`cylinder` wraps each element onto the cylinder of radius R (MODEL.md §10): the element
-polygon is cut into narrow circumferential strips (48 per turn, so that the helical crease,
-half a turn, gets 24 sub-segments) and mapped by (z, s) ↦ (R cos(s/R), R sin(s/R), z), so
-straight development edges become arcs and helices; open folds show as gaps (circular bands,
-the wedge-shaped helical slit).
+The geometry comes from :mod:`biplan.geometry.surface`; this module only draws it.
 """
 
 from __future__ import annotations
 
-from typing import TYPE_CHECKING, Any, cast
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 from matplotlib import colormaps
 from matplotlib.collections import LineCollection, PolyCollection
-from matplotlib.colors import BoundaryNorm, ListedColormap, Normalize, to_rgb
+from matplotlib.colors import BoundaryNorm, Colormap, ListedColormap, Normalize
 from matplotlib.patches import Rectangle
 
-from biplan.geometry import chain
+from biplan.geometry import foldlines, surface
+from biplan.geometry.foldlines import branch_index
+from biplan.geometry.module import directions
+from biplan.geometry.surface import ELEMENT_POLYGONS as ELEMENT_NODES
+from biplan.geometry.surface import element_strips
 from biplan.plot.response import FONT_SIZE, _new_axes, _style
 
 if TYPE_CHECKING:
     from matplotlib.axes import Axes
-    from mpl_toolkits.mplot3d.axes3d import Axes3D
+    from matplotlib.figure import Figure
 
     from biplan.assembly import Model
 
-__all__ = ["cylinder", "development", "element_strips", "elongation_norm", "fold_lines"]
+__all__ = [
+    "ARC_SUBDIVISIONS",
+    "ELEMENT_NODES",
+    "development",
+    "development_panels",
+    "element_strips",
+    "elongation_norm",
+    "fold_lines",
+]
 
-#: Node indices (order A..G) of the two rigid elements' polygons.
-ELEMENT_NODES = ((0, 1, 2, 3), (4, 5, 6))
 #: Light fills of element 1 and element 2 (colour-blind-safe blue / orange tints).
 ELEMENT_FILL = ("#d5e3f0", "#f6e1c8")
 ELEMENT_EDGE = "0.35"
 #: Sub-segments per fold line (colour gradient); facets per circumference of the cylinder.
 FOLD_SUBDIVISIONS = 24
-ARC_SUBDIVISIONS = 48
+ARC_SUBDIVISIONS = surface.DEFAULT_SUBDIVISIONS
 #: Perceptually uniform, colour-blind-safe map; its brightest 10 % (pale yellow) is cut so that
 #: open folds stay visible on the light element fills.
 ELONGATION_CMAP = ListedColormap(colormaps["cividis"](np.linspace(0.0, 0.9, 256)), "cividis_cut")
 PHASES = ("closed", "spinodal", "open")
+PHASE_CMAP = ListedColormap(colormaps["cividis"]([0.05, 0.5, 0.88]), "phases")
+PHASE_NORM = BoundaryNorm([-0.5, 0.5, 1.5, 2.5], 3)
 LINEAR_FOLD_COLOR = "0.25"
-
-
-def _segments_along(start: np.ndarray, end: np.ndarray, n: int) -> np.ndarray:
-    """(n, 2, 2) sub-segments of the straight line start → end, points in (s, z) order."""
-    t = np.linspace(0.0, 1.0, n + 1)[:, None]
-    pts = (1 - t) * start + t * end
-    return np.stack([pts[:-1], pts[1:]], axis=1)[..., ::-1]
-
-
-def _edge_point(ref: np.ndarray, glob: np.ndarray, segments: tuple, s: float) -> np.ndarray:
-    """Global (z, s) of the point at reference circumferential position ``s`` on an edge."""
-    for _, i0, i1 in segments:
-        s0, s1 = ref[i0, 1], ref[i1, 1]
-        if min(s0, s1) - 1e-9 <= s <= max(s0, s1) + 1e-9:
-            t = 0.0 if s1 == s0 else (s - s0) / (s1 - s0)
-            return (1 - t) * glob[i0] + t * glob[i1]
-    raise ValueError(f"s = {s} mm lies outside the edge")  # pragma: no cover - layout bug
+#: Guides (Okabe–Ito reddish purple) and rotation centres.
+GUIDE_COLOR = "#CC79A7"
+PIVOT_COLOR = "0.15"
 
 
 def fold_lines(model: Model, q: np.ndarray) -> list[tuple[str, np.ndarray, np.ndarray, Any]]:
@@ -87,59 +85,97 @@ def fold_lines(model: Model, q: np.ndarray) -> list[tuple[str, np.ndarray, np.nd
     list of (gid, start, end, law)
         One entry per helical fold (N) and per circular fold field: an identifier, start and
         end points ``(z, s, w)`` [mm] (position in the development and elongation there) and
-        the fold's law.
+        the fold's law (see :func:`biplan.geometry.foldlines.fold_lines`).
     """
-    layout, tube = model.layout, model.tube
-    kin = model.kinematics(q)
-    glob = model.global_nodes(q)
-    out = []
-    for n in range(layout.n_modules):
-        start = 0.5 * (glob[n, 3] + glob[n, 4])  # D/E
-        end = 0.5 * (glob[n, 2] + glob[n, 5])  # C/F
-        w0, wa = kin.helical[n]
-        out.append((f"helical-fold-{n}", np.r_[start, w0], np.r_[end, wa], tube.helical_laws[n]))
-    if not layout.n_connectors:
-        return out
-    dev = tube.development
-    s_of_rank = np.array([0.0, dev.element1_span, dev.helical_span, dev.circumference])
-    t = chain.tables(layout)
-    field_no = np.zeros(layout.n_connectors, dtype=int)
-    for f, c in enumerate(t.field_conn):
-        spec = layout.connectors[c]
-        up, lo = spec.upper, spec.lower
-        ends = []
-        for pt, w in ((t.field_start[f], kin.field_start[f]), (t.field_end[f], kin.field_end[f])):
-            s = s_of_rank[t.pt_s[pt]]
-            upper = _edge_point(kin.reference[up], glob[up], layout.shapes[up].bottom.segments, s)
-            if lo is None:
-                lower = np.array([0.0, s])  # the clamp line z = 0
-            else:
-                top = layout.shapes[lo].top.segments
-                lower = _edge_point(kin.reference[lo], glob[lo], top, s)
-            ends.append(np.r_[0.5 * (upper + lower), w])
-        out.append((f"circular-field-{c}-{field_no[c]}", *ends, tube.circular_laws[c]))
-        field_no[c] += 1
-    return out
+    lines = _lines(model, q)
+    laws = _laws(model)
+    return [
+        (name, np.r_[lines.start[f], lines.w_start[f]], np.r_[lines.end[f], lines.w_end[f]], law)
+        for f, (name, law) in enumerate(zip(lines.names, laws[lines.fold], strict=True))
+    ]
+
+
+def _lines(model: Model, q: np.ndarray) -> foldlines.FoldLines:
+    return foldlines.fold_lines(model.layout, model.params.geometry, model.kinematics(q))
+
+
+def _laws(model: Model) -> np.ndarray:
+    """Law of every fold, helical then circular (object array, indexable by fold)."""
+    laws = np.empty(model.layout.n_modules + model.layout.n_connectors, dtype=object)
+    laws[:] = [*model.tube.helical_laws, *model.tube.circular_laws]
+    return laws
 
 
 def elongation_norm(model: Model, qs: list[np.ndarray] | np.ndarray) -> Normalize:
-    """A colour scale [mm] spanning the fold elongations of one or several states ``qs``."""
+    """A colour scale [mm] spanning the fold elongations of one or several states ``qs``.
+
+    From min(0, w) to max(w) over every fold field of every state (at least 1 µm wide).
+    """
     qs = np.atleast_2d(np.asarray(qs, dtype=float))
-    return _span([e for q in qs for e in fold_lines(model, q)])
-
-
-def _span(lines: list[tuple[str, np.ndarray, np.ndarray, Any]]) -> Normalize:
-    """Colour scale from min(0, w) to max(w) [mm] over the ends of the given fold lines."""
-    w = np.array([[start[2], end[2]] for _, start, end, _ in lines])
+    w = np.concatenate([np.r_[ln.w_start, ln.w_end] for ln in (_lines(model, q) for q in qs)])
     return Normalize(vmin=min(0.0, float(w.min())), vmax=max(float(w.max()), 1e-3))
 
 
-def _phase(law: Any, w: np.ndarray) -> np.ndarray:
-    """Branch index 0 (closed), 1 (spinodal), 2 (open) of w, or NaN for a single-branch law."""
-    transitions = getattr(law, "transitions", None)
-    if transitions is None:
-        return np.full_like(w, np.nan)
-    return np.searchsorted(np.asarray(transitions, dtype=float), w, side="right").astype(float)
+def fold_scale(
+    color_by: str, norm: Normalize | None, model: Model, q: np.ndarray
+) -> tuple[Colormap, Normalize]:
+    """Colour map and norm of a fold view: ``"elongation"`` (w [mm]) or ``"phase"``.
+
+    Raises
+    ------
+    ValueError
+        For an unknown ``color_by``.
+    """
+    if color_by == "elongation":
+        return ELONGATION_CMAP, norm or elongation_norm(model, q)
+    if color_by == "phase":
+        return PHASE_CMAP, PHASE_NORM
+    raise ValueError(f"color_by must be 'elongation' or 'phase', got {color_by!r}")
+
+
+def fold_values(color_by: str, law: Any, w: np.ndarray) -> np.ndarray:
+    """What the colour shows at elongations ``w``: w itself or the branch (NaN: single-branch)."""
+    return np.asarray(w, dtype=float) if color_by == "elongation" else branch_index(law, w)
+
+
+def add_colorbar(ax: Axes | list[Axes], color_by: str, cmap: Colormap, norm: Normalize) -> None:
+    """A colorbar for the folds next to ``ax`` (one Axes or a row of them): "w [mm]" or the
+    three phase names."""
+    from matplotlib.cm import ScalarMappable
+
+    fig = (ax[0] if isinstance(ax, list) else ax).figure
+    cb = fig.colorbar(ScalarMappable(norm, cmap), ax=ax, shrink=0.8, aspect=30)
+    if color_by == "elongation":
+        cb.set_label(r"$w$ [mm]", fontsize=FONT_SIZE)
+    else:
+        cb.set_ticks([0, 1, 2], labels=list(PHASES))
+    cb.ax.tick_params(labelsize=FONT_SIZE)
+
+
+def _segments_along(start: np.ndarray, end: np.ndarray, n: int) -> np.ndarray:
+    """(n, 2, 2) sub-segments of the straight line start → end, points in (s, z) order."""
+    t = np.linspace(0.0, 1.0, n + 1)[:, None]
+    pts = (1 - t) * start + t * end
+    return np.stack([pts[:-1], pts[1:]], axis=1)[..., ::-1]
+
+
+def _draw_guides(ax: Axes, model: Model, q: np.ndarray, nodes: np.ndarray) -> None:
+    """Guide rails through the reference C and F (along n_sp) and the pivots A and G."""
+    kin = model.kinematics(q)
+    beta, half = model.tube.development.beta, 0.3 * model.tube.development.pitch
+    rails = []
+    for n, shape in enumerate(model.layout.shapes):
+        n_sp = np.asarray(directions(shape.kind, shape.mirror, beta)[1])
+        for node in (2, 5):  # C, F
+            ends = kin.reference[n, node] + np.outer([-half, half], n_sp)
+            glob = ends @ kin.frames[n, :2, :2].T + kin.frames[n, :2, 2]
+            rails.append(glob[:, ::-1])
+    guides = LineCollection(rails, colors=GUIDE_COLOR, linewidths=0.9, linestyles=(0, (2, 1)))
+    guides.set(zorder=4, gid="guides")
+    ax.add_collection(guides, autolim=False)
+    pivots = nodes[:, [0, 6]].reshape(-1, 2)
+    ax.plot(pivots[:, 1], pivots[:, 0], "o", ms=3.0, mfc="white", mec=PIVOT_COLOR, mew=0.7)
+    ax.lines[-1].set(zorder=5, gid="pivots")
 
 
 def development(
@@ -149,6 +185,7 @@ def development(
     ax: Axes | None = None,
     color_by: str = "elongation",
     reference: bool = False,
+    guides: bool = False,
     norm: Normalize | None = None,
     colorbar: bool = True,
 ) -> Axes:
@@ -167,6 +204,10 @@ def development(
         drawn as thin dark dashed lines).
     reference : bool
         Overlay the reference development (q = 0) as grey dashed outlines on top.
+    guides : bool
+        Draw the guides (dashed rails along the opening normal n_sp through the reference
+        positions of C and F, gid ``"guides"``) and the rotation centres (pivots A and G,
+        open circles, gid ``"pivots"``).
     norm : Normalize, optional
         Elongation colour scale [mm] (share one between panels, see :func:`elongation_norm`);
         default spans this state's elongations.
@@ -183,9 +224,8 @@ def development(
     ValueError
         For an unknown ``color_by``.
     """
-    if color_by not in ("elongation", "phase"):
-        raise ValueError(f"color_by must be 'elongation' or 'phase', got {color_by!r}")
     q = np.asarray(q, dtype=float)
+    cmap, norm = fold_scale(color_by, norm, model, q)
     dev = model.tube.development
     ax = _new_axes(ax, (2.6, 3.4))
     glob = model.global_nodes(q)
@@ -202,17 +242,9 @@ def development(
         ref.set(linestyle="--", linewidth=0.5, zorder=2.5, gid="reference")
         ax.add_collection(ref, autolim=False)
 
-    lines = fold_lines(model, q)
-    if color_by == "elongation":
-        cmap = ELONGATION_CMAP
-        norm = norm or _span(lines)
-    else:
-        cmap = ListedColormap(colormaps["cividis"]([0.05, 0.5, 0.88]), "phases")
-        norm = BoundaryNorm([-0.5, 0.5, 1.5, 2.5], cmap.N)
     tt = (np.arange(FOLD_SUBDIVISIONS) + 0.5) / FOLD_SUBDIVISIONS
-    for gid, start, end, law in lines:
-        w = (1 - tt) * start[2] + tt * end[2]
-        values = w if color_by == "elongation" else _phase(law, w)
+    for gid, start, end, law in fold_lines(model, q):
+        values = fold_values(color_by, law, (1 - tt) * start[2] + tt * end[2])
         single = bool(np.all(np.isnan(values)))  # single-branch law in the phase view
         segs = _segments_along(start[:2], end[:2], 1 if single else FOLD_SUBDIVISIONS)
         lc = LineCollection(list(segs), zorder=3, gid=gid, capstyle="round")  # no seams
@@ -221,6 +253,8 @@ def development(
         else:
             lc.set(cmap=cmap, norm=norm, array=values, linewidth=1.8)
         ax.add_collection(lc)
+    if guides:
+        _draw_guides(ax, model, q, glob)
 
     clamp = Rectangle((0.0, -0.6), dev.circumference, 0.6, fill=False, hatch="////", lw=0.0)
     ax.add_patch(clamp).set(edgecolor="0.3", zorder=1)
@@ -235,160 +269,57 @@ def development(
     ax.set_ylabel(r"$z$ [mm]")
     _style(ax)
     if colorbar:
-        from matplotlib.cm import ScalarMappable
-
-        cb = ax.figure.colorbar(ScalarMappable(norm, cmap), ax=ax, shrink=0.8, aspect=30)
-        if color_by == "elongation":
-            cb.set_label(r"$w$ [mm]", fontsize=FONT_SIZE)
-        else:
-            cb.set_ticks([0, 1, 2], labels=list(PHASES))
-        cb.ax.tick_params(labelsize=FONT_SIZE)
+        add_colorbar(ax, color_by, cmap, norm)
     return ax
 
 
-def _clip(poly: np.ndarray, s_cut: float, keep_above: bool) -> np.ndarray:
-    """Sutherland–Hodgman clip of a convex polygon (k, 2) in (z, s) to s ≥ or ≤ ``s_cut``."""
-    inside = (poly[:, 1] >= s_cut) if keep_above else (poly[:, 1] <= s_cut)
-    out = []
-    for i in range(len(poly)):
-        p, nxt = poly[i], poly[(i + 1) % len(poly)]
-        p_in, n_in = inside[i], inside[(i + 1) % len(poly)]
-        if p_in:
-            out.append(p)
-        if p_in != n_in:
-            t = (s_cut - p[1]) / (nxt[1] - p[1])
-            out.append(p + t * (nxt - p))
-    return np.asarray(out).reshape(-1, 2)
-
-
-def element_strips(corners: np.ndarray, width: float) -> list[np.ndarray]:
-    """Cut a convex element polygon (z, s) [mm] into strips of circumferential ``width`` [mm].
-
-    Strip boundaries lie on the global grid s = k·width, so neighbouring elements share them.
-    Each strip is a convex polygon of 3–6 vertices whose wrapped image is a nearly flat facet
-    of the cylinder; its bottom and top edges become chords of arcs and helices.
-    """
-    s = corners[:, 1]
-    strips = []
-    for k in range(int(np.floor(s.min() / width)), int(np.ceil(s.max() / width))):
-        strip = _clip(_clip(corners, k * width, True), (k + 1) * width, False)
-        if len(strip) >= 3 and np.ptp(strip[:, 1]) > 1e-9 * width:
-            strips.append(strip)
-    return strips
-
-
-def _nice_length(span: float) -> float:
-    """A round scale-bar length [mm] of about a third of ``span``."""
-    raw = max(span / 3.0, 1e-3)
-    mag = 10.0 ** np.floor(np.log10(raw))
-    return float(mag * max(m for m in (1.0, 2.0, 5.0) if m * mag <= raw))
-
-
-def _shaded(centres: np.ndarray, base: list[str], elev: float, azim: float) -> np.ndarray:
-    """Two-sided Lambert shading of cylinder facets: RGB (M, 3) of the ``base`` colours.
-
-    ``centres`` (M, 3) are facet centroids relative to the tube axis; on a cylinder the facet
-    normal is radial.
-    """
-    normal = np.column_stack([centres[:, 0], centres[:, 1], np.zeros(len(centres))])
-    normal /= np.maximum(np.linalg.norm(normal, axis=1, keepdims=True), 1e-12)
-    el, az = np.radians(elev + 25.0), np.radians(azim + 35.0)  # light above-left of the viewer
-    light = np.array([np.cos(el) * np.cos(az), np.cos(el) * np.sin(az), np.sin(el)])
-    shade = 0.55 + 0.45 * np.abs(normal @ light)
-    return np.array([to_rgb(c) for c in base]) * shade[:, None]
-
-
-def _front_edges(
-    polygon: np.ndarray, width: float, radius: float, eye: np.ndarray
-) -> list[np.ndarray]:
-    """Wrapped edge pieces (2, 3) of an element polygon (z, s) that face the viewer ``eye``."""
-    pieces = []
-    for a, b in zip(polygon, np.roll(polygon, -1, axis=0), strict=True):
-        n = max(1, int(np.ceil(abs(b[1] - a[1]) / width)))
-        t = np.linspace(0.0, 1.0, n + 1)[:, None]
-        xyz = np.asarray(chain.wrap_to_cylinder((1 - t) * a + t * b, radius))
-        mid = 0.5 * (xyz[1:] + xyz[:-1])
-        facing = mid[:, 0] * eye[0] + mid[:, 1] * eye[1] > 0.0
-        pieces += [xyz[i : i + 2] for i in np.flatnonzero(facing)]
-    return pieces
-
-
-def cylinder(
+def development_panels(
     model: Model,
-    q: np.ndarray,
+    qs: list[np.ndarray] | np.ndarray,
     *,
-    ax: Axes3D | None = None,
-    elev: float = 20.0,
-    azim: float = -60.0,
-    offset: tuple[float, float] = (0.0, 0.0),
-) -> Axes3D:
-    """Draw the configuration wrapped onto the cylinder of radius R (MODEL.md §10).
+    titles: list[str] | None = None,
+    color_by: str = "elongation",
+    guides: bool = False,
+    width: float | None = None,
+) -> Figure:
+    """Several developments side by side on one colour scale and one frame.
 
     Parameters
     ----------
     model : Model
-    q : ndarray, shape (n_q,)
-        Generalised coordinates.
-    ax : Axes3D, optional
-        3D Axes to draw into; a new figure with one 3D Axes when omitted. Tubes drawn earlier
-        into the same Axes stay in view (limits grow to hold all of them).
-    elev, azim : float
-        View elevation and azimuth [degrees] (orthographic projection).
-    offset : (float, float)
-        Translation (x, y) [mm] of the tube axis, to place several states side by side.
+    qs : sequence of ndarray, each (n_q,)
+        The states, e.g. ``[model.zeros(), solution.q]`` for reference and deformed.
+    titles : list of str, optional
+        One panel title per state.
+    color_by : {"elongation", "phase"}
+        As for :func:`development`; one colorbar for all panels.
+    guides : bool
+        Draw guides and rotation centres in every panel.
+    width : float, optional
+        Figure width [in]; default 1.7 in per panel plus the colorbar, at most 7.0 in (a
+        journal page; 3.4 in is a column).
 
     Returns
     -------
-    Axes3D
-        The Axes drawn into: x, y, z [mm] at equal scale, orthographic, axes hidden, with a
-        vertical scale bar next to the first tube drawn into it. Artists are drawn in zorder
-        (``computed_zorder`` off): facets at 1, the element outlines facing the viewer at 2.
+    Figure
+        One row of Axes, the first with the z label; equal limits in all panels.
     """
-    from mpl_toolkits.mplot3d.art3d import Line3DCollection, Poly3DCollection
+    import matplotlib.pyplot as plt
 
-    q = np.asarray(q, dtype=float)
-    radius = model.tube.development.radius
-    ax = cast("Axes3D", _new_axes(ax, (2.6, 2.6), projection="3d"))
-    first = not any(c.get_gid() == "cylinder" for c in ax.collections)
-    glob = model.global_nodes(q)
-    width = model.tube.development.circumference / ARC_SUBDIVISIONS
-    eye = np.array([np.cos(np.radians(azim)), np.sin(np.radians(azim))])
-    strips, base, edges = [], [], []
-    for n in range(len(glob)):
-        for k, idx in enumerate(ELEMENT_NODES):
-            cut = element_strips(glob[n, list(idx)], width)
-            strips += cut
-            base += [ELEMENT_FILL[k]] * len(cut)
-            edges += _front_edges(glob[n, list(idx)], width, radius, eye)
-    facets = [np.asarray(chain.wrap_to_cylinder(p, radius)) for p in strips]
-    rgb = _shaded(np.array([f.mean(axis=0) for f in facets]), base, elev, azim)
-    shift = np.array([offset[0], offset[1], 0.0])
-    facets = [f + shift for f in facets]
-    # Edges in the face colour (not antialiased) hide the hairline seams between facets.
-    poly = Poly3DCollection(facets, fc=rgb, ec=rgb, lw=0.3, aa=False, zorder=1, gid="cylinder")
-    ax.add_collection3d(poly)
-    # Element outlines (circular and helical creases, seam) where they face the viewer.
-    outline = Line3DCollection([e + shift for e in edges], colors=ELEMENT_EDGE, linewidths=0.35)
-    ax.add_collection3d(outline)
-    outline.set(zorder=2, gid="cylinder-edges")
-
-    xyz = np.concatenate(facets)
-    lo, hi = np.minimum(xyz.min(axis=0), [np.inf, np.inf, 0.0]), xyz.max(axis=0)
-    if first:
-        bar = _nice_length(hi[2] - lo[2])
-        x0, y0 = offset[0] - 1.8 * radius, offset[1]
-        ax.plot([x0, x0], [y0, y0], [0.0, bar], color="0.2", lw=1.2)
-        ax.text(x0, y0, 0.5 * bar, f"{bar:g} mm ", ha="right", va="center", fontsize=FONT_SIZE)
-        lo[0] = min(lo[0], x0)
-    else:
-        lo = np.minimum(lo, [ax.get_xlim()[0], ax.get_ylim()[0], ax.get_zlim()[0]])
-        hi = np.maximum(hi, [ax.get_xlim()[1], ax.get_ylim()[1], ax.get_zlim()[1]])
-    ax.set_xlim(lo[0], hi[0])
-    ax.set_ylim(lo[1], hi[1])
-    ax.set_zlim(lo[2], hi[2])
-    ax.set_box_aspect(tuple(np.maximum(hi - lo, 1e-6)))
-    ax.set_proj_type("ortho")
-    ax.computed_zorder = False  # outlines (zorder 2) over the depth-sorted facets (zorder 1)
-    ax.view_init(elev=elev, azim=azim)
-    ax.set_axis_off()
-    return ax
+    qs = np.atleast_2d(np.asarray(qs, dtype=float))
+    width = width or min(7.0, 1.7 * len(qs) + 0.9)
+    fig, axes = plt.subplots(1, len(qs), figsize=(width, 3.6), layout="constrained", squeeze=False)
+    norm = elongation_norm(model, qs) if color_by == "elongation" else None
+    for i, (ax, q) in enumerate(zip(axes[0], qs, strict=True)):
+        development(model, q, ax=ax, color_by=color_by, guides=guides, norm=norm, colorbar=False)
+        if titles is not None:
+            ax.set_title(titles[i], fontsize=FONT_SIZE)
+    xlim = min(a.get_xlim()[0] for a in axes[0]), max(a.get_xlim()[1] for a in axes[0])
+    ylim = min(a.get_ylim()[0] for a in axes[0]), max(a.get_ylim()[1] for a in axes[0])
+    for i, a in enumerate(axes[0]):
+        a.set(xlim=xlim, ylim=ylim)
+        if i:
+            a.set_ylabel("")
+            a.tick_params(labelleft=False)
+    add_colorbar(list(axes[0]), color_by, *fold_scale(color_by, norm, model, qs[0]))
+    return fig

@@ -1,9 +1,41 @@
 """Solvers: equilibrium (Newton/KKT), path following, dynamics."""
 
+from biplan.solvers.continuation import ArcLength as ArcLength
+from biplan.solvers.continuation import LoadStepping as LoadStepping
+from biplan.solvers.continuation import trace_path as trace_path
+from biplan.solvers.control import Control as Control
+from biplan.solvers.control import ControlKind as ControlKind
+from biplan.solvers.dynamics import GeneralizedAlpha as GeneralizedAlpha
+from biplan.solvers.dynamics import LoadHistory as LoadHistory
+from biplan.solvers.dynamics import integrate as integrate
 from biplan.solvers.newton import Newton as Newton
 from biplan.solvers.newton import Solution as Solution
 from biplan.solvers.newton import Status as Status
 from biplan.solvers.newton import relaxed_reference as relaxed_reference
 from biplan.solvers.newton import solve_equilibrium as solve_equilibrium
+from biplan.solvers.results import Event as Event
+from biplan.solvers.results import Path as Path
+from biplan.solvers.results import PathStatus as PathStatus
+from biplan.solvers.results import Trajectory as Trajectory
+from biplan.solvers.results import TrajectoryStatus as TrajectoryStatus
 
-__all__ = ["Newton", "Solution", "Status", "relaxed_reference", "solve_equilibrium"]
+__all__ = [
+    "ArcLength",
+    "Control",
+    "ControlKind",
+    "Event",
+    "GeneralizedAlpha",
+    "LoadHistory",
+    "LoadStepping",
+    "Newton",
+    "Path",
+    "PathStatus",
+    "Solution",
+    "Status",
+    "Trajectory",
+    "TrajectoryStatus",
+    "integrate",
+    "relaxed_reference",
+    "solve_equilibrium",
+    "trace_path",
+]

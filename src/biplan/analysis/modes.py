@@ -1,0 +1,76 @@
+"""Small-vibration modes about a stable equilibrium.
+
+With N the null-space basis of the active constraints (as for stability, MODEL §12), the
+reduced stiffness K_r = Nᵀ K N and mass M_r = Nᵀ M N give the natural angular frequencies
+ω_i² = eig(K_r, M_r) [rad/s]. They set the time scale of snap-through (a period of order
+0.1–1 ms against the paper's 2 s ramp) and the mass-proportional Rayleigh coefficient
+α_R = 2 ζ ω_1 that gives the first mode a damping ratio ζ.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+import scipy.linalg
+
+from biplan._errors import ConfigError
+from biplan.analysis.stability import reduced_hessian
+from biplan.assembly import Model
+from biplan.solvers.dynamics import mass_matrix_at
+from biplan.solvers.newton import Solution
+
+__all__ = ["Modes", "natural_modes", "rayleigh_for_damping_ratio"]
+
+
+@dataclass(frozen=True)
+class Modes:
+    """Natural modes of a stable equilibrium.
+
+    Attributes
+    ----------
+    angular_frequency : ndarray
+        ω_i [rad/s], ascending.
+    shapes : ndarray (n_q, n_modes)
+        Mode shapes in q, M-orthonormal.
+    """
+
+    angular_frequency: np.ndarray
+    shapes: np.ndarray
+
+    @property
+    def frequency(self) -> np.ndarray:
+        """f_i = ω_i / 2π [Hz]."""
+        return self.angular_frequency / (2.0 * np.pi)
+
+    @property
+    def period(self) -> np.ndarray:
+        """T_i = 2π / ω_i [s]."""
+        return 2.0 * np.pi / self.angular_frequency
+
+
+def natural_modes(model: Model, solution: Solution) -> Modes:
+    """Natural modes about a converged, stable equilibrium.
+
+    Raises
+    ------
+    ConfigError
+        If the solution is not converged, or not stable (a negative ω² has no frequency).
+    """
+    if not solution.converged:
+        raise ConfigError("solution", solution.status.name, "a converged Solution")
+    k_r, basis = reduced_hessian(model, solution)
+    if basis.shape[1] == 0:
+        return Modes(np.zeros(0), np.zeros((model.n_coordinates, 0)))
+    m_r = basis.T @ mass_matrix_at(model, solution.q) @ basis
+    w2, vec = scipy.linalg.eigh(k_r, 0.5 * (m_r + m_r.T))
+    if w2[0] <= 0:
+        raise ConfigError("solution", f"λ_min = {w2[0]:.3g}", "a stable equilibrium (ω² > 0)")
+    return Modes(np.sqrt(w2), basis @ vec)
+
+
+def rayleigh_for_damping_ratio(modes: Modes, ratio: float) -> float:
+    """α_R [1/s] of D = α_R M that damps the first mode with ratio ζ (ζ_1 = α_R / 2ω_1)."""
+    if not 0 < ratio < 1:
+        raise ConfigError("ratio", ratio, "a damping ratio in (0, 1)")
+    return 2.0 * ratio * float(modes.angular_frequency[0])

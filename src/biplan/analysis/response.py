@@ -1,0 +1,132 @@
+"""Summaries of a force–displacement response (main "Application"; SI design maps).
+
+:func:`summarize` reads the quantities the paper discusses for the semi-bistable MFT off a
+path or trajectory:
+
+* the phase-1 peak: the largest end force before the first loss of stability [N] and the
+  load-point displacement there [mm];
+* the spinodal regime: the displacement span [mm] over which the recorded equilibria are
+  unstable (λ_min(H_r) < 0) — first unstable to last unstable state;
+* the state at a given end force (default the paper's terminal 1.6 N): u_z/l₀, u_r/l₀ and θ,
+  interpolated along the first stretch of the response that reaches that force.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import Any
+
+import numpy as np
+
+__all__ = ["ResponseSummary", "summarize"]
+
+#: The paper's terminal force of the design-map ramp [N].
+TERMINAL_FORCE = 1.6
+
+
+@dataclass(frozen=True)
+class ResponseSummary:
+    """Key numbers of a response (NaN where the response does not reach them).
+
+    Attributes
+    ----------
+    peak_force, peak_displacement : float
+        Phase-1 peak force [N] and load-point displacement there [mm].
+    spinodal_start, spinodal_end : float
+        Load-point displacement [mm] of the first and last unstable state.
+    at_force : float
+        The force [N] of the ``u_z_ratio`` … ``theta`` entries.
+    u_z_ratio, u_r_ratio : float
+        u_z/l₀ and u_r/l₀ at ``at_force``.
+    theta : float
+        End slope θ [rad] at ``at_force``.
+    """
+
+    peak_force: float
+    peak_displacement: float
+    spinodal_start: float
+    spinodal_end: float
+    at_force: float
+    u_z_ratio: float
+    u_r_ratio: float
+    theta: float
+
+    @property
+    def spinodal_span(self) -> float:
+        """Width [mm] of the spinodal regime (0 when the response never loses stability)."""
+        if not np.isfinite(self.spinodal_start):
+            return 0.0
+        return self.spinodal_end - self.spinodal_start
+
+    def lines(self) -> list[str]:
+        """Human-readable lines (for the CLI)."""
+        out = [
+            f"phase-1 peak force {self.peak_force:.4f} N at z_p = {self.peak_displacement:.3f} mm"
+        ]
+        if np.isfinite(self.spinodal_start):
+            out.append(
+                f"spinodal regime z_p = {self.spinodal_start:.3f} … {self.spinodal_end:.3f} mm "
+                f"(span {self.spinodal_span:.3f} mm)"
+            )
+        else:
+            out.append("no spinodal regime (every recorded state is stable)")
+        out.append(
+            f"at F = {self.at_force:g} N: u_z/l0 = {self.u_z_ratio:.4f}, "
+            f"u_r/l0 = {self.u_r_ratio:.4f}, theta = {self.theta:.4f} rad"
+        )
+        return out
+
+
+def summarize(
+    result: Any, force: float = TERMINAL_FORCE, initial_length: float | None = None
+) -> ResponseSummary:
+    """Summarize a Path, Trajectory or QuasiStaticPath (anything with the arrays ``force``,
+    ``displacement``, ``u_z``, ``u_r``, ``theta``, ``stable``).
+
+    Parameters
+    ----------
+    result : Path, Trajectory or QuasiStaticPath
+    force : float
+        End force [N] at which to report u_z/l₀, u_r/l₀ and θ.
+    initial_length : float, optional
+        l₀ [mm]; default ``result.model.tube.initial_length``.
+    """
+    f = np.asarray(result.force, dtype=float)
+    zp = np.asarray(result.displacement, dtype=float)
+    stable = np.asarray(result.stable, dtype=bool)
+    ok = np.isfinite(f)
+    if initial_length is None:
+        initial_length = float(result.model.tube.initial_length)
+    nan = float("nan")
+    unstable = np.flatnonzero(ok & ~stable)
+    first_bad = int(unstable[0]) if unstable.size else len(f)
+    phase1 = np.flatnonzero(ok[:first_bad])
+    if phase1.size:
+        k = int(phase1[np.argmax(f[phase1])])
+        peak_f, peak_u = float(f[k]), float(zp[k])
+    else:
+        peak_f = peak_u = nan
+    if unstable.size:
+        s0, s1 = float(zp[unstable].min()), float(zp[unstable].max())
+    else:
+        s0 = s1 = nan
+    # first stretch that reaches ``force``
+    reach = np.flatnonzero(ok & (f >= force - 1e-9))
+    if reach.size and reach[0] > 0:
+        j = int(reach[0])
+        i = j - 1
+        w = (force - f[i]) / (f[j] - f[i]) if f[j] != f[i] else 1.0
+
+        def at(x: np.ndarray) -> float:
+            return float((1 - w) * x[i] + w * x[j])
+
+        uz = at(np.asarray(result.u_z)) / initial_length
+        ur = at(np.asarray(result.u_r)) / initial_length
+        th = at(np.asarray(result.theta))
+    elif reach.size:
+        uz = float(result.u_z[0]) / initial_length
+        ur = float(result.u_r[0]) / initial_length
+        th = float(result.theta[0])
+    else:
+        uz = ur = th = nan
+    return ResponseSummary(peak_f, peak_u, s0, s1, float(force), uz, ur, th)

@@ -1,0 +1,213 @@
+"""``biplan plot RESULT --kind KIND --out FILE``: a picture of any result file.
+
+RESULT is a netCDF file written by the other commands: a path (``kind = "path"``, dim
+``step``), a trajectory (``"trajectory"``, dim ``time``) or a state catalogue (``"states"``,
+dim ``state``); its ``config`` attribute rebuilds the model. Kinds:
+
+* ``response`` — force against load-point displacement (unstable stretches dashed);
+* ``development`` — the planar development of one state (``--step``, default the last);
+* ``tube`` — the 3D tube of one state; with ``--out`` ending in ``.vtu`` the state, and with
+  ``.pvd`` the whole series (every ``--stride``-th state), are exported for ParaView instead;
+* ``animation`` — GIF or MP4 of a path or trajectory (development, tube, F–U marker);
+* ``gallery`` — 3D thumbnails of all states of a catalogue, in hierarchy order;
+* ``energy``, ``eigenvalue``, ``phases`` — energy by fold set, smallest eigenvalue and open
+  fraction of every fold along a path or trajectory.
+
+Static figures are written in the format of the ``--out`` suffix (PNG, PDF, SVG, …).
+"""
+
+from __future__ import annotations
+
+import enum
+from pathlib import Path
+from types import SimpleNamespace
+from typing import TYPE_CHECKING, Annotated, Any, cast
+
+import numpy as np
+import typer
+from rich.console import Console
+from rich.markup import escape
+
+from biplan._errors import ConfigError
+
+if TYPE_CHECKING:
+    from matplotlib.figure import Figure
+
+    from biplan.assembly import Model
+
+__all__ = ["Kind", "plot"]
+
+#: Resolution of static figures [dots per inch].
+DPI = 300
+SERIES_KINDS = ("path", "trajectory")
+
+
+class Kind(enum.StrEnum):
+    """What ``biplan plot`` draws."""
+
+    response = "response"
+    development = "development"
+    tube = "tube"
+    animation = "animation"
+    gallery = "gallery"
+    energy = "energy"
+    eigenvalue = "eigenvalue"
+    phases = "phases"
+
+
+class ColorBy(enum.StrEnum):
+    """Fold colouring."""
+
+    elongation = "elongation"
+    phase = "phase"
+
+
+def _load(file: Path) -> Any:
+    """The result dataset of ``file``; unreadable files are a usage error."""
+    from biplan.io.results import load_result
+
+    try:
+        return load_result(file)
+    except (OSError, ValueError) as err:
+        raise typer.BadParameter(f"cannot read {file}: {err}", param_hint="RESULT") from None
+
+
+def _model(dataset: Any) -> Model:
+    from biplan.io.results import model_of
+
+    return model_of(dataset)
+
+
+def _require(dataset: Any, kind: Kind, kinds: tuple[str, ...]) -> None:
+    found = dataset.attrs.get("kind", "?")
+    if found not in kinds:
+        raise ConfigError(f"--kind {kind.value}", f"a {found} result", f"a {' or '.join(kinds)}")
+
+
+def _root(ax: Any) -> Figure:
+    """The figure an Axes belongs to."""
+    return cast("Figure", ax.get_figure(root=True))
+
+
+def _state(dataset: Any, step: int) -> np.ndarray:
+    q = np.asarray(dataset["q"].values, dtype=float)
+    if not -len(q) <= step < len(q):
+        raise typer.BadParameter(f"{step} outside 0..{len(q) - 1}", param_hint="--step")
+    return q[step]
+
+
+def _figure(dataset: Any, kind: Kind, step: int, color_by: str, guides: bool, view: dict) -> Figure:
+    from biplan import plot
+    from biplan.plot import diagnostics
+    from biplan.plot.gallery import gallery
+
+    if kind is Kind.gallery:
+        _require(dataset, kind, ("states",))
+        return gallery(dataset, _model(dataset), color_by=color_by, **view)
+    if kind in (Kind.development, Kind.tube):
+        model = _model(dataset)
+        q = _state(dataset, step)
+        if kind is Kind.development:
+            return _root(plot.development(model, q, color_by=color_by, guides=guides))
+        return _root(plot.cylinder(model, q, color_by=color_by, colorbar=True, **view))
+    _require(dataset, kind, SERIES_KINDS)
+    if kind is Kind.response:
+        n = dataset["force"].size
+        stable = dataset["stable"].values if "stable" in dataset else np.ones(n)
+        curve = SimpleNamespace(
+            displacement=dataset["displacement"].values,
+            force=dataset["force"].values,
+            stable=np.asarray(stable, dtype=bool),
+            switched=np.zeros(n, dtype=bool),
+        )
+        if "limit_point" in dataset:
+            curve.limit_point = np.asarray(dataset["limit_point"].values, dtype=bool)
+        return _root(plot.force_displacement(cast("Any", curve)))
+    draw = {
+        Kind.energy: diagnostics.energy_by_fold_set,
+        Kind.eigenvalue: diagnostics.min_eigenvalue,
+        Kind.phases: diagnostics.phase_fractions,
+    }[kind]
+    return _root(draw(dataset))
+
+
+def plot(
+    result: Annotated[
+        Path,
+        typer.Argument(
+            help="Result file (netCDF) of a path, trajectory or state catalogue.",
+            exists=True,
+            dir_okay=False,
+            show_default=False,
+        ),
+    ],
+    kind: Annotated[Kind, typer.Option("--kind", "-k", help="What to draw.")],
+    out: Annotated[
+        Path,
+        typer.Option(
+            "--out", "-o", help="Output file; its suffix picks the format (.png, .gif, .mp4, .vtu)."
+        ),
+    ],
+    step: Annotated[
+        int, typer.Option("--step", "-s", help="State drawn by development/tube (-1: last).")
+    ] = -1,
+    color_by: Annotated[
+        ColorBy, typer.Option("--color-by", help="Fold colouring.")
+    ] = ColorBy.elongation,
+    guides: Annotated[
+        bool, typer.Option("--guides", help="development: draw guides and rotation centres.")
+    ] = False,
+    fps: Annotated[float, typer.Option("--fps", min=0.1, help="animation: frames/s.")] = 15.0,
+    stride: Annotated[
+        int, typer.Option("--stride", min=1, help="animation, .pvd: every n-th saved step.")
+    ] = 1,
+    dpi: Annotated[
+        float | None,
+        typer.Option("--dpi", min=10, help="Dots per inch; default 300 (animation: 100)."),
+    ] = None,
+    elev: Annotated[float, typer.Option("--elev", help="3D view elevation in degrees.")] = 20.0,
+    azim: Annotated[float, typer.Option("--azim", help="3D view azimuth in degrees.")] = -60.0,
+) -> None:
+    """Draw a result file: response, development, tube, animation, gallery, diagnostics."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    dataset = _load(result)
+    view = {"elev": elev, "azim": azim}
+    suffix = out.suffix.lower()
+    if kind is Kind.animation and suffix not in (".gif", ".mp4"):
+        raise typer.BadParameter("an animation is written as .gif or .mp4", param_hint="--out")
+    try:
+        out.parent.mkdir(parents=True, exist_ok=True)
+        if kind is Kind.animation:
+            from biplan.plot.animation import animate
+
+            _require(dataset, kind, SERIES_KINDS)
+            model = _model(dataset)
+            animate(
+                dataset,
+                model,
+                out,
+                fps=fps,
+                stride=stride,
+                dpi=dpi or 100,
+                color_by=color_by.value,
+                elev=elev,
+                azim=azim,
+            )
+        elif kind is Kind.tube and suffix in (".vtu", ".pvd"):
+            from biplan.io.vtk import export_result
+
+            _state(dataset, step)
+            export_result(dataset, _model(dataset), out, stride=stride, index=step)
+        else:
+            fig = _figure(dataset, kind, step, color_by.value, guides, view)
+            try:
+                fig.savefig(out, dpi=dpi or DPI)
+            finally:
+                plt.close(fig)
+    except OSError as err:
+        raise typer.BadParameter(f"cannot write {out}: {err}", param_hint="--out") from None
+    Console(highlight=False).print(f"wrote {escape(str(out))}")

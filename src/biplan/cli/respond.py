@@ -1,0 +1,161 @@
+"""``biplan respond CONFIG --control {force,displacement,pressure} [--dynamic] --out DIR``.
+
+Quasi-static (default): follows the equilibrium path with pseudo-arclength continuation
+(``--method arclength``) or load stepping (``--method stepping``) from the relaxed reference to
+``--stop``. Dynamic (``--dynamic``): integrates the equations of motion under the ramp
+Λ(t) = ``--rate`` · t for 0 ≤ t ≤ ``--duration`` (default the paper's 0.8 N/s for 2 s), then
+holds for ``--hold`` seconds.
+
+Writes into DIR:
+
+* ``response.nc`` — the labelled result (xarray/netCDF, with the tube configuration);
+* ``response.csv`` — one row per step (or time, column ``t`` [s]) with at least
+  ``force,u_z,u_r,theta,energy,min_eigenvalue,stable``;
+* ``response.png`` — force against load-point displacement, unstable stretches dashed,
+  located limit points marked.
+
+Units: force N, displacement mm, pressure **kPa** on the command line (MPa = N/mm² in the
+library).
+"""
+
+from __future__ import annotations
+
+import enum
+import sys
+from pathlib import Path
+from typing import Annotated
+
+import typer
+from rich.console import Console
+
+__all__ = ["Method", "respond"]
+
+#: Default stop values per control (quasi-static): F [N], U [mm], p [kPa].
+DEFAULT_STOP = {"force": 2.5, "displacement": 9.0, "pressure": 200.0}
+#: Default ramp rates per control (dynamic): N/s, mm/s, kPa/s (paper: 0.8 N/s).
+DEFAULT_RATE = {"force": 0.8, "displacement": 4.5, "pressure": 64.0}
+
+
+class ControlName(enum.StrEnum):
+    force = "force"
+    displacement = "displacement"
+    pressure = "pressure"
+
+
+class Method(enum.StrEnum):
+    arclength = "arclength"
+    stepping = "stepping"
+
+
+def respond(
+    config: Annotated[Path, typer.Argument(help="Tube configuration (TOML).", exists=True)],
+    out: Annotated[Path, typer.Option("--out", help="Output directory.")] = Path("response"),
+    control: Annotated[ControlName, typer.Option(help="Controlled quantity.")] = ControlName.force,
+    dynamic: Annotated[bool, typer.Option("--dynamic", help="Integrate in time.")] = False,
+    stop: Annotated[
+        float | None,
+        typer.Option(help="Quasi-static end value: N, mm or kPa (default 2.5 N, 9 mm, 200 kPa)."),
+    ] = None,
+    method: Annotated[Method, typer.Option(help="Quasi-static path method.")] = Method.arclength,
+    step: Annotated[float, typer.Option(help="Initial path step (arclength or Λ units).")] = 0.05,
+    max_step: Annotated[float, typer.Option(help="Largest path step.")] = 0.1,
+    max_steps: Annotated[int, typer.Option(help="Most path steps.")] = 2000,
+    rate: Annotated[
+        float | None, typer.Option(help="Dynamic ramp rate: N/s, mm/s or kPa/s (default 0.8 N/s).")
+    ] = None,
+    duration: Annotated[float, typer.Option(help="Ramp duration [s].")] = 2.0,
+    hold: Annotated[float, typer.Option(help="Hold after the ramp [s].")] = 0.0,
+    time_step: Annotated[float, typer.Option(help="Time step [s].")] = 0.01,
+    damping_ratio: Annotated[
+        float,
+        typer.Option(help="Rayleigh damping as a first-mode damping ratio ζ (0: undamped)."),
+    ] = 0.05,
+    quiet: Annotated[bool, typer.Option("--quiet", "-q", help="No progress or summary.")] = False,
+) -> None:
+    """Force-, displacement- or pressure-controlled response of a tube (quasi-static or
+    dynamic); writes response.nc, response.csv and response.png."""
+    import biplan
+    from biplan.analysis.response import summarize
+    from biplan.io.results import dataset, save_csv, save_netcdf
+
+    console = Console(quiet=quiet or not sys.stdout.isatty(), highlight=False)
+    tube = biplan.load_config(config)
+    model = biplan.Model(tube)
+    kind = control.value
+    scale = 1e-3 if kind == "pressure" else 1.0  # kPa → MPa
+    with console.status(f"[bold]{tube.name}[/]: {'integrating' if dynamic else 'tracing'}…"):
+        if dynamic:
+            result = _dynamic(model, kind, scale, rate, duration, hold, time_step, damping_ratio)
+        else:
+            value = (DEFAULT_STOP[kind] if stop is None else stop) * scale
+            ctl = biplan.Control(biplan.solvers.ControlKind(kind), value)
+            cls = biplan.ArcLength if method is Method.arclength else biplan.LoadStepping
+            result = biplan.trace_path(
+                model,
+                cls(initial_step=step, max_step=max(max_step, step), max_steps=max_steps),
+                None,
+                ctl,
+            )
+    out.mkdir(parents=True, exist_ok=True)
+    save_netcdf(dataset(result), out / "response.nc")
+    save_csv(result, out / "response.csv")
+    _figure(result, out / "response.png")
+    summary = summarize(result)
+    level = "green" if result.completed else "yellow"
+    Console(quiet=quiet, highlight=False).print(
+        f"[{level}]{result.message}[/]\n"
+        + "\n".join(summary.lines())
+        + f"\nwrote {out}/response.{{nc,csv,png}}"
+    )
+
+
+def _dynamic(
+    model: object,
+    kind: str,
+    scale: float,
+    rate: float | None,
+    duration: float,
+    hold: float,
+    time_step: float,
+    damping_ratio: float,
+) -> object:
+    import biplan
+    from biplan.analysis.modes import natural_modes, rayleigh_for_damping_ratio
+    from biplan.solvers import BackwardEuler, ControlKind
+
+    r = (DEFAULT_RATE[kind] if rate is None else rate) * scale
+    top = r * duration
+    times = (0.0, duration) if hold <= 0 else (0.0, duration, duration + hold)
+    values = (0.0, top) if hold <= 0 else (0.0, top, top)
+    history = biplan.LoadHistory(ControlKind(kind), times, values)
+    rayleigh = 0.0
+    if damping_ratio > 0:
+        ref = biplan.relaxed_reference(model)  # type: ignore[arg-type]
+        probe = biplan.solve_equilibrium(
+            model,  # type: ignore[arg-type]
+            None,
+            ref,
+            biplan.Control(ControlKind(kind), 0.5 * top).load(model, 0.5 * top),  # type: ignore[arg-type]
+        )
+        rayleigh = rayleigh_for_damping_ratio(natural_modes(model, probe), damping_ratio)  # type: ignore[arg-type]
+    scheme = BackwardEuler(time_step=time_step, rayleigh=rayleigh)
+    return biplan.integrate(model, scheme, t_end=times[-1], load=history)  # type: ignore[arg-type]
+
+
+def _figure(result: object, file: Path) -> None:
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    from biplan.plot.response import COLUMN_FIGSIZE, force_displacement
+
+    fig, ax = plt.subplots(figsize=COLUMN_FIGSIZE, layout="constrained")
+    try:
+        force_displacement(result, ax=ax)
+        ax.set_xlabel(r"load-point displacement $z_p$ [mm]")
+        if getattr(result, "is_event", None) is not None and result.is_event.any():  # type: ignore[attr-defined]
+            ax.legend(fontsize=7, frameon=False)
+        fig.savefig(file, dpi=300)
+    finally:
+        plt.close(fig)

@@ -1,0 +1,259 @@
+"""The compiled core of path following: a corrector and a whole adaptive path in one loop.
+
+The load parameter Λ enters the loading affinely, ``Load(F = c_F Λ, U = c_U Λ, d)`` with
+``ctl = (c_F, c_U, d)``: force control (1, 0, 0), displacement control (0, 1, 1), pressure
+(πR², 0, 0). The corrector solves the augmented system (Riks/Crisfield; Allgower & Georg)::
+
+    r(z, Λ) = 0,     c_zᵀ z + c_Λ Λ = ρ
+
+by Newton on the bordered matrix [[J, ∂r/∂Λ], [c_zᵀ, c_Λ]]. The side condition is either the
+pseudo-arclength hyperplane through the predictor, orthogonal to the tangent in the weighted
+norm ‖(δq, δΛ)‖² = δqᵀδq + w_Λ² δΛ² (multipliers carry no weight), or Λ = Λ_target (natural
+parameter stepping and the final step onto the stop value).
+
+:func:`path_loop` runs the predictor–corrector with step adaptation inside one
+``lax.while_loop`` and writes the accepted states into fixed-size buffers, so a whole path is
+one compiled call per tube layout and buffer size.
+"""
+
+from __future__ import annotations
+
+import functools
+from typing import Any, NamedTuple
+
+from biplan._jax import jax, jnp
+from biplan.assembly import Load, ModelParams, TubeLayout, kkt_jacobian, residual, sizes
+from biplan.solvers._damped import damped_newton
+
+Array = Any
+
+#: Codes of the loop status (see ``PathStatus``).
+RUNNING, COMPLETED, MAX_STEPS, STALLED = -1, 0, 1, 2
+
+
+def load_of(ctl: Array, lam: Array) -> Load:
+    """The Load at parameter Λ for control coefficients ``ctl = (c_F, c_U, d)``."""
+    return Load(ctl[0] * lam, ctl[1] * lam, ctl[2])
+
+
+def _weights(layout: TubeLayout, n: int) -> Array:
+    nq, _, _ = sizes(layout)
+    return jnp.concatenate([jnp.ones(nq), jnp.zeros(n - nq)])
+
+
+def _blocks(layout: TubeLayout, p: ModelParams, z: Array, lam: Array, ctl: Array):
+    def r_of(zz: Array, ll: Array) -> Array:
+        return residual(layout, p, zz, load_of(ctl, ll))
+
+    r, r_lam = jax.jvp(lambda ll: r_of(z, ll), (lam,), (jnp.ones_like(lam),))
+    jac = kkt_jacobian(layout, p, z, load_of(ctl, lam))
+    return r, r_lam, jac
+
+
+def _bordered_solve(jac: Array, r_lam: Array, row_z: Array, row_l: Array, rhs: Array) -> Array:
+    top = jnp.concatenate([jac, r_lam[:, None]], axis=1)
+    bottom = jnp.concatenate([row_z, row_l[None]])[None, :]
+    return jnp.linalg.solve(jnp.concatenate([top, bottom], axis=0), rhs)
+
+
+class CorrectorOut(NamedTuple):
+    z: Array
+    lam: Array
+    converged: Array
+    iterations: Array
+    residual: Array  # ‖r‖∞ at the returned point
+    jac: Array  # Jacobian blocks at the returned point (for the tangent)
+    r_lam: Array
+
+
+def corrector(
+    layout: TubeLayout,
+    p: ModelParams,
+    z0: Array,
+    lam0: Array,
+    ctl: Array,
+    row_z: Array,
+    row_l: Array,
+    rho: Array,
+    atol: Array,
+    max_iterations: Array,
+) -> CorrectorOut:
+    """Damped Newton on the bordered system from (z0, Λ0); pure, jit/vmap-able."""
+    n = z0.shape[0]
+
+    def aug(x: Array) -> Array:
+        z, lam = x[:n], x[n]
+        r = residual(layout, p, z, load_of(ctl, lam))
+        return jnp.concatenate([r, (row_z @ z + row_l * lam - rho)[None]])
+
+    def jac(x: Array) -> Array:
+        _, r_lam, j = _blocks(layout, p, x[:n], x[n], ctl)
+        top = jnp.concatenate([j, r_lam[:, None]], axis=1)
+        return jnp.concatenate([top, jnp.concatenate([row_z, row_l[None]])[None, :]], axis=0)
+
+    out = damped_newton(aug, jac, jnp.concatenate([z0, lam0[None]]), atol, max_iterations)
+    return CorrectorOut(
+        out.x[:n],
+        out.x[n],
+        out.converged,
+        out.iterations,
+        out.residual,
+        out.jacobian[:n, :n],
+        out.jacobian[:n, n],
+    )
+
+
+def tangent(jac: Array, r_lam: Array, weights: Array, w_lam: Array, previous: Array) -> Array:
+    """Unit tangent (weighted norm) of the solution curve, oriented along ``previous``."""
+    n = jac.shape[0]
+    row_z = weights * previous[:n]
+    row_l = w_lam**2 * previous[n]
+    rhs = jnp.zeros(n + 1).at[n].set(1.0)
+    t = _bordered_solve(jac, r_lam, row_z, row_l, rhs)
+    norm = jnp.sqrt(jnp.sum(weights * t[:n] ** 2) + (w_lam * t[n]) ** 2)
+    return t / norm
+
+
+class PathBuffers(NamedTuple):
+    z: Array  # (B, n)
+    lam: Array  # (B,)
+    tangent: Array  # (B, n + 1)
+    step: Array  # (B,) step length that reached the state
+    iterations: Array  # (B,)
+    count: Array  # accepted states (incl. the start)
+    cutbacks: Array
+    status: Array
+
+
+def path_loop(
+    layout: TubeLayout,
+    buffer_size: int,
+    p: ModelParams,
+    z0: Array,
+    lam0: Array,
+    ctl: Array,
+    stop: Array,
+    settings: Array,
+) -> PathBuffers:
+    """Adaptive predictor–corrector path from (z0, Λ0) toward Λ = ``stop``.
+
+    ``settings = [natural, ds0, ds_min, ds_max, grow, max_steps, atol, max_iterations, w_Λ]``;
+    natural = 1 steps Λ by ds (load stepping), 0 uses pseudo-arclength steps ds.
+    """
+    natural, ds0, ds_min, ds_max, grow = settings[0] > 0.5, *settings[1:5]
+    max_steps, atol, max_it, w_lam = settings[5], settings[6], settings[7], settings[8]
+    n = z0.shape[0]
+    weights = _weights(layout, n)
+    direction = jnp.sign(stop - lam0)
+
+    _, r_lam0, jac0 = _blocks(layout, p, z0, lam0, ctl)
+    t0 = tangent(jac0, r_lam0, weights, w_lam, jnp.zeros(n + 1).at[n].set(direction))
+
+    buf = PathBuffers(
+        z=jnp.zeros((buffer_size, n)).at[0].set(z0),
+        lam=jnp.zeros(buffer_size).at[0].set(lam0),
+        tangent=jnp.zeros((buffer_size, n + 1)).at[0].set(t0),
+        step=jnp.zeros(buffer_size),
+        iterations=jnp.zeros(buffer_size, dtype=jnp.int32),
+        count=jnp.asarray(1),
+        cutbacks=jnp.asarray(0),
+        status=jnp.asarray(RUNNING),
+    )
+
+    def cond(s: tuple) -> Array:
+        return s[0].status == RUNNING
+
+    def body(s: tuple) -> tuple:
+        b, z, lam, t, ds, fails = s
+        tz, tl = t[:n], t[n]
+        # predictor
+        h = ds * direction
+        tl_safe = jnp.where(jnp.abs(tl) > 1e-12, tl, 1e-12)
+        # natural step: tangent predictor (load stepping) or, as an arclength retry, none
+        z_nat = jnp.where(natural, z + (h / tl_safe) * tz, z)
+        l_nat = lam + h
+        z_arc, l_arc = z + ds * tz, lam + ds * tl
+        # Retry cycle after failures (arclength only): pseudo-arclength → local
+        # parametrisation → natural step of Λ; the step halves after a full failed cycle.
+        mode = jnp.where(natural, 2, fails % 3)
+        zp = jnp.where(mode == 2, z_nat, z_arc)
+        lp = jnp.where(mode == 2, l_nat, l_arc)
+        final = (lp - stop) * direction >= 0.0
+        # side condition: hyperplane ⟂ tangent, or Λ fixed (natural / final step)
+        fix = (mode == 2) | final
+        # After a failed pseudo-arclength corrector, alternate with the local parametrisation
+        # by the coordinate that changes fastest (Rheinboldt): it passes the corners of the path
+        # that piecewise-linear laws create when several folds cross a breakpoint together.
+        j = jnp.argmax(weights * jnp.abs(tz))
+        local = (mode == 1) & ~fix
+        e = jnp.zeros(n + 1).at[j].set(1.0)
+        row_z = jnp.where(fix, 0.0, jnp.where(local, e[:n], weights * tz))
+        row_l = jnp.where(fix, 1.0, jnp.where(local, e[n], w_lam**2 * tl))
+        target = jnp.where(final, stop, lp)
+        rho = jnp.where(fix, target, row_z @ zp + row_l * lp)
+        zp = jnp.where(final & natural, z + ((stop - lam) / tl_safe) * tz, zp)
+        c = corrector(
+            layout, p, zp, jnp.where(fix, target, lp), ctl, row_z, row_l, rho, atol, max_it
+        )
+        ok = c.converged
+        # orient the new tangent along the old one after a pseudo-arclength step (smooth limit
+        # points), along the secant of the step after a retry (sharp corners, where the old
+        # tangent would point back along the new branch)
+        secant = jnp.concatenate([c.z - z, (c.lam - lam)[None]])
+        sec_norm = jnp.sqrt(jnp.sum(weights * secant[:n] ** 2) + (w_lam * secant[n]) ** 2)
+        t_new = tangent(
+            c.jac, c.r_lam, weights, w_lam, jnp.where((sec_norm > 0) & (mode > 0), secant, t)
+        )
+        # a retry must move on along the branch in q, not fall back onto the traversed part
+        forward = jnp.sum(weights * secant[:n] * tz) > 0.0
+        ok = ok & jnp.all(jnp.isfinite(t_new)) & ((mode == 0) | natural | forward)
+        i = b.count
+        nb = b._replace(
+            z=jnp.where(ok, b.z.at[i].set(c.z), b.z),
+            lam=jnp.where(ok, b.lam.at[i].set(c.lam), b.lam),
+            tangent=jnp.where(ok, b.tangent.at[i].set(t_new), b.tangent),
+            step=jnp.where(ok, b.step.at[i].set(ds), b.step),
+            iterations=jnp.where(ok, b.iterations.at[i].set(c.iterations), b.iterations),
+            count=b.count + ok.astype(int),
+            cutbacks=b.cutbacks + (~ok).astype(int),
+        )
+        easy = c.iterations <= 3
+        hard = c.iterations >= 7
+        ds_ok = jnp.where(easy, jnp.minimum(ds * grow, ds_max), jnp.where(hard, 0.7 * ds, ds))
+        ds_new = jnp.where(ok, ds_ok, jnp.where(mode == 2, 0.5 * ds, ds))
+        status = jnp.where(
+            ok & final,
+            COMPLETED,
+            jnp.where(
+                ~ok & (ds_new < ds_min),
+                STALLED,
+                jnp.where(
+                    (nb.count - 1 >= max_steps) | (nb.count >= buffer_size), MAX_STEPS, RUNNING
+                ),
+            ),
+        )
+        nb = nb._replace(status=status)
+        return (
+            nb,
+            jnp.where(ok, c.z, z),
+            jnp.where(ok, c.lam, lam),
+            jnp.where(ok, t_new, t),
+            ds_new,
+            jnp.where(ok, 0, fails + 1),
+        )
+
+    out = jax.lax.while_loop(cond, body, (buf, z0, lam0, t0, ds0, jnp.asarray(0)))
+    return out[0]
+
+
+@functools.lru_cache(maxsize=32)
+def compiled_path(layout: TubeLayout, buffer_size: int) -> Any:
+    """The jitted :func:`path_loop` of a layout and buffer size."""
+    return jax.jit(functools.partial(path_loop, layout, buffer_size))
+
+
+@functools.lru_cache(maxsize=32)
+def compiled_corrector(layout: TubeLayout) -> Any:
+    """The jitted corrector, vmapped over (z0, Λ0, row_z, row_l, ρ)."""
+    fn = functools.partial(corrector, layout)
+    return jax.jit(jax.vmap(fn, in_axes=(None, 0, 0, None, 0, 0, 0, None, None)))

@@ -1,0 +1,375 @@
+"""Path following through snap-through: load stepping and pseudo-arclength continuation.
+
+``trace_path(model, method, start, control)`` follows the equilibrium branch from ``start``
+while the load parameter Λ of ``control`` (end force, end displacement or pressure) goes to
+``control.stop``:
+
+* :class:`LoadStepping` — natural-parameter continuation: Λ is stepped, the tangent predicts,
+  Newton corrects. Under displacement control it passes force limit points; under force
+  control it stops at the first limit point (status ``STALLED``; the tube would snap — use
+  :class:`ArcLength` for the branch, or :func:`biplan.solvers.dynamics.integrate` for the jump).
+* :class:`ArcLength` — pseudo-arclength continuation (Riks; Crisfield; Allgower & Georg), which
+  follows the branch through limit points and snap-backs.
+
+Steps adapt: a corrector that fails (no convergence in ``max_iterations``) halves the step
+(a *cut-back*, counted in ``Path.stats``); easy steps (≤ 3 iterations) grow it by ``grow``, hard
+ones (≥ 7) shrink it. The whole loop is one compiled call per layout (see
+:mod:`biplan.solvers._pathkernel`); the recorded states are then observed in batches
+(:mod:`biplan.solvers.observe`): end force, u_z, u_r, θ, energy by fold, phase fractions, the
+smallest reduced-Hessian eigenvalue and stability. Where that eigenvalue changes sign between
+two steps, the crossing is located by repeated multisection (bisection generalised to
+``CHUNK − 1`` interior points per round) on the secant between them, and recorded as a limit
+point (Λ has an extremum there) or a bifurcation.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from biplan._errors import ConfigError, check_range
+from biplan._jax import jnp
+from biplan.assembly import Load, Model
+from biplan.solvers import _pathkernel as pk
+from biplan.solvers.control import Control
+from biplan.solvers.newton import Newton, Solution, solve_equilibrium
+from biplan.solvers.observe import CHUNK, STABILITY_TOL, observe_batch
+from biplan.solvers.results import Event, Path, PathStats, PathStatus
+
+__all__ = ["ArcLength", "LoadStepping", "trace_path"]
+
+#: Buffers are allocated in multiples of this (one compiled shape per multiple).
+BUFFER_QUANTUM = 256
+
+
+@dataclass(frozen=True)
+class _Stepper:
+    initial_step: float = 0.05
+    min_step: float = 1e-7
+    max_step: float = 0.25
+    grow: float = 1.5
+    max_steps: int = 2000
+    atol: float = 1e-9
+    max_iterations: int = 10
+    locate_events: bool = True
+    event_tolerance: float = 1e-7
+
+    def __post_init__(self) -> None:
+        name = type(self).__name__
+        check_range(f"{name}.initial_step", self.initial_step, low=0.0)
+        check_range(f"{name}.min_step", self.min_step, low=0.0, high=self.initial_step)
+        check_range(f"{name}.max_step", self.max_step, low=self.initial_step)
+        check_range(f"{name}.grow", self.grow, low=1.0)
+        check_range(f"{name}.atol", self.atol, low=0.0)
+        check_range(f"{name}.event_tolerance", self.event_tolerance, low=0.0, high=1.0)
+        for attr in ("max_steps", "max_iterations"):
+            v = getattr(self, attr)
+            if isinstance(v, bool) or not isinstance(v, int) or v < 1:
+                raise ConfigError(f"{name}.{attr}", v, "an integer ≥ 1")
+
+    natural = True
+
+    def settings(self, load_weight: float) -> np.ndarray:
+        return np.array(
+            [
+                1.0 if self.natural else 0.0,
+                self.initial_step,
+                self.min_step,
+                self.max_step,
+                self.grow,
+                self.max_steps,
+                self.atol,
+                self.max_iterations,
+                load_weight,
+            ]
+        )
+
+
+@dataclass(frozen=True)
+class LoadStepping(_Stepper):
+    """Natural-parameter continuation: Λ advances by an adaptive step.
+
+    Parameters
+    ----------
+    initial_step, min_step, max_step : float
+        Steps of Λ in its own unit (N, mm or MPa).
+    grow : float
+        Growth factor after an easy step (≥ 1).
+    max_steps : int
+        Accepted steps at most.
+    atol : float
+        Corrector tolerance on ‖r‖∞.
+    max_iterations : int
+        Newton iterations per corrector before a cut-back.
+    locate_events : bool
+        Locate sign changes of λ_min(H_r) between steps.
+    event_tolerance : float
+        Relative width of the final bracket of a located event.
+    """
+
+    natural = True
+
+
+@dataclass(frozen=True)
+class ArcLength(_Stepper):
+    """Pseudo-arclength continuation through limit points and snap-backs.
+
+    Steps are arc lengths in the norm ‖(δq, δΛ)‖² = δqᵀδq + w_Λ² δΛ² (q in mm and rad;
+    multipliers unweighted). Parameters as for :class:`LoadStepping`, plus:
+
+    Parameters
+    ----------
+    load_weight : float
+        w_Λ [1/unit of Λ · mm]: how much a change of Λ counts against a change of q.
+    """
+
+    load_weight: float = 1.0
+    natural = False
+
+    def __post_init__(self) -> None:
+        super().__post_init__()
+        check_range("ArcLength.load_weight", self.load_weight, low=0.0)
+
+
+def _start_state(model: Model, control: Control, start: object, solver: Newton) -> Solution:
+    from biplan.solvers.newton import relaxed_reference
+
+    if start is None:
+        ref = relaxed_reference(model, solver)
+        value = 0.0 if control.start is None else control.start
+        return ref if value == 0.0 else _solve_at(model, control, ref, value, solver)
+    if not isinstance(start, Solution):
+        raise ConfigError("start", type(start).__name__, "a converged Solution or None")
+    if not start.converged:
+        raise ConfigError("start", start.status.name, "a converged Solution")
+    value = (
+        control.value_of(start.load, start.displacement, start.force, model)
+        if control.start is None
+        else control.start
+    )
+    return _solve_at(model, control, start, value, solver)
+
+
+def _solve_at(
+    model: Model, control: Control, start: Solution, value: float, solver: Newton
+) -> Solution:
+    sol = solve_equilibrium(model, solver, start, control.load(model, value))
+    if not sol.converged:
+        raise ConfigError(
+            "start",
+            f"{control.kind.value} = {value:g}",
+            f"a state that is an equilibrium at the start value ({sol.message})",
+        )
+    return sol
+
+
+def trace_path(
+    model: Model,
+    method: LoadStepping | ArcLength | None = None,
+    start: Solution | None = None,
+    control: Control | None = None,
+) -> Path:
+    """Follow the equilibrium path of ``model`` under ``control``.
+
+    Parameters
+    ----------
+    model : Model
+    method : LoadStepping or ArcLength, optional
+        Default ``ArcLength()``.
+    start : Solution, optional
+        Converged starting state; default the relaxed reference (Λ = 0).
+    control : Control
+        The controlled quantity and its final value.
+
+    Returns
+    -------
+    Path
+        Check ``path.status``: ``COMPLETED`` when Λ reached ``control.stop``; otherwise the
+        path up to the last converged state, with the reason in ``path.message``.
+    """
+    if control is None:
+        raise ConfigError("control", None, "a Control (Control.force / displacement / pressure)")
+    if not isinstance(control, Control):
+        raise ConfigError("control", type(control).__name__, "a biplan Control")
+    method = ArcLength() if method is None else method
+    if not isinstance(method, LoadStepping | ArcLength):
+        raise ConfigError("method", type(method).__name__, "LoadStepping or ArcLength")
+    solver = Newton(atol=method.atol)
+    first = _start_state(model, control, start, solver)
+    lam0 = control.value_of(first.load, first.displacement, first.force, model)
+    ctl = control.coefficients(model)
+    weight = getattr(method, "load_weight", 1.0)
+    if lam0 == control.stop:
+        raise ConfigError("control.stop", control.stop, f"a value other than the start {lam0:g}")
+
+    size = BUFFER_QUANTUM * int(np.ceil((method.max_steps + 1) / BUFFER_QUANTUM))
+    run = pk.compiled_path(model.layout, size)
+    out = run(
+        model.params,
+        jnp.asarray(first.z),
+        jnp.asarray(lam0),
+        jnp.asarray(ctl),
+        jnp.asarray(float(control.stop)),
+        jnp.asarray(method.settings(weight)),
+    )
+    count = int(out.count)
+    z = np.asarray(out.z)[:count]
+    lam = np.asarray(out.lam)[:count]
+    tang = np.asarray(out.tangent)[:count]
+    steps = np.asarray(out.step)[:count]
+    its = np.asarray(out.iterations)[:count]
+    status = PathStatus.from_code(int(out.status))
+    if count > 1 and not np.all(np.isfinite(z)):
+        status = PathStatus.NONFINITE
+
+    events: list[Event] = []
+    inserted: list[tuple[int, np.ndarray, float]] = []
+    obs = observe_batch(model.layout, model.params, z, _loads(ctl, lam))
+    if method.locate_events and count > 1:
+        for i in _sign_changes(obs.min_eigenvalue):
+            found = _locate(model, ctl, z[i], lam[i], z[i + 1], lam[i + 1], obs, i, method, weight)
+            if found is None:
+                continue
+            zi, li = found
+            kind = "limit point" if tang[i, -1] * tang[i + 1, -1] < 0 else "bifurcation"
+            inserted.append((i, zi, li))
+            events.append(
+                Event(kind=kind, step=-1, load_parameter=li, force=np.nan, displacement=np.nan)
+            )
+    if inserted:
+        z, lam, tang, steps, its, flags = _insert(z, lam, tang, steps, its, inserted)
+        obs = observe_batch(model.layout, model.params, z, _loads(ctl, lam))
+        idx = np.flatnonzero(flags)
+        events = [
+            Event(e.kind, int(k), float(lam[k]), float(obs.force[k]), float(obs.displacement[k]))
+            for e, k in zip(events, idx, strict=True)
+        ]
+    else:
+        flags = np.zeros(len(lam), bool)
+
+    stats = PathStats(
+        n_steps=count - 1,
+        n_cutbacks=int(out.cutbacks),
+        newton_iterations=int(its.sum()),
+        n_events=len(events),
+        smallest_step=float(steps[1:].min()) if count > 1 else float("nan"),
+        largest_step=float(steps[1:].max()) if count > 1 else float("nan"),
+    )
+    return Path.build(
+        model=model,
+        control=control,
+        method=type(method).__name__,
+        z=z,
+        load_parameter=lam,
+        observation=obs,
+        event_flags=flags,
+        events=tuple(events),
+        status=status,
+        stats=stats,
+        direction=tang[:, -1],
+    )
+
+
+def _loads(ctl: np.ndarray, lam: np.ndarray) -> Load:
+    lam = np.asarray(lam, dtype=float)
+    return Load(ctl[0] * lam, ctl[1] * lam, np.full_like(lam, ctl[2]))
+
+
+def _sign_changes(lam_min: np.ndarray) -> list[int]:
+    s = np.where(
+        np.isfinite(lam_min), np.sign(np.where(np.abs(lam_min) < STABILITY_TOL, 0, lam_min)), 1
+    )
+    return [i for i in range(len(s) - 1) if s[i] * s[i + 1] < 0]
+
+
+def _locate(
+    model: Model,
+    ctl: np.ndarray,
+    za: np.ndarray,
+    la: float,
+    zb: np.ndarray,
+    lb: float,
+    obs: object,
+    i: int,
+    method: _Stepper,
+    weight: float,
+) -> tuple[np.ndarray, float] | None:
+    """Locate the sign change of λ_min between two path states by multisection on the
+    secant hyperplanes between them."""
+    nq = model.n_coordinates
+    corr = pk.compiled_corrector(model.layout)
+    f_a = float(np.asarray(obs.min_eigenvalue)[i])  # type: ignore[attr-defined]
+    lo, hi = 0.0, 1.0
+    best: tuple[np.ndarray, float] | None = None
+    for _ in range(12):
+        alpha = np.linspace(lo, hi, CHUNK + 2)[1:-1]
+        dz, dl = zb - za, lb - la
+        row_z = np.zeros_like(za)
+        row_z[:nq] = dz[:nq]
+        row_l = weight**2 * dl
+        zp = za[None, :] + alpha[:, None] * dz[None, :]
+        lp = la + alpha * dl
+        rho = zp @ row_z + row_l * lp
+        out = corr(
+            model.params,
+            jnp.asarray(zp),
+            jnp.asarray(lp),
+            jnp.asarray(ctl),
+            jnp.asarray(np.broadcast_to(row_z, zp.shape)),
+            jnp.asarray(np.full(CHUNK, row_l)),
+            jnp.asarray(rho),
+            jnp.asarray(method.atol),
+            jnp.asarray(method.max_iterations),
+        )
+        ok = np.asarray(out.converged)
+        if not ok.any():
+            return best
+        zc, lc = np.asarray(out.z)[ok], np.asarray(out.lam)[ok]
+        o = observe_batch(model.layout, model.params, zc, _loads(ctl, lc))
+        a_ok = alpha[ok]
+        same = np.sign(o.min_eigenvalue) == np.sign(f_a)
+        # bracket: last point with the start's sign, first with the other
+        k = int(np.argmin(same)) if not same.all() else len(same)
+        new_lo = a_ok[k - 1] if k > 0 else lo
+        new_hi = a_ok[k] if k < len(same) else hi
+        pick = k if k < len(same) else k - 1
+        best = (zc[pick], float(lc[pick]))
+        lo, hi = new_lo, new_hi
+        if hi - lo < method.event_tolerance:
+            break
+    return best
+
+
+def _insert(
+    z: np.ndarray,
+    lam: np.ndarray,
+    tang: np.ndarray,
+    steps: np.ndarray,
+    its: np.ndarray,
+    inserted: list[tuple[int, np.ndarray, float]],
+) -> tuple[np.ndarray, ...]:
+    zs, ls, ts, ss, ii, fl = [], [], [], [], [], []
+    at = {i: (zi, li) for i, zi, li in inserted}
+    for k in range(len(lam)):
+        zs.append(z[k])
+        ls.append(lam[k])
+        ts.append(tang[k])
+        ss.append(steps[k])
+        ii.append(its[k])
+        fl.append(False)
+        if k in at:
+            zs.append(at[k][0])
+            ls.append(at[k][1])
+            ts.append(0.5 * (tang[k] + tang[k + 1]))
+            ss.append(0.0)
+            ii.append(0)
+            fl.append(True)
+    return (
+        np.asarray(zs),
+        np.asarray(ls),
+        np.asarray(ts),
+        np.asarray(ss),
+        np.asarray(ii),
+        np.asarray(fl, bool),
+    )

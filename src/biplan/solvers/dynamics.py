@@ -1,0 +1,374 @@
+"""Implicit dynamics of a tube: ``integrate(model, scheme, q0, v0, t_end, load=...)``.
+
+The constrained equations of motion (SI Eq. governing, in Lagrangian form, MODEL §13)::
+
+    M(q) q̈ + c(q, q̇) + α_R M q̇ + ∇Π − ∇W_ext + Gᵀλ − Cᵀλ_∂ = 0,   g(q) = 0,   φ_SFB = 0
+
+are integrated by the generalized-α method (:class:`GeneralizedAlpha`, MODEL CHOICE D3) with
+the mass matrix of :mod:`biplan.inertia` (surface density μ = ``tube.surface_density``).
+Rayleigh damping D = α_R M is optional (CHOICE D2; the paper states none). The load follows a
+piecewise-linear :class:`LoadHistory` of force, displacement or pressure — by default the
+paper's ramp F(t) = 0.8 N/s · t for 0 ≤ t ≤ 2 s.
+
+Step size: fixed, ``time_step``; a step whose Newton iteration fails is retried with the step
+halved (up to ``max_halvings`` times) from the last converged state, and the nominal step is
+resumed after the retried stretch. Every retry is counted in ``Trajectory.stats``.
+
+Energy bookkeeping: kinetic T, strain Π, external work W = ∫ F dz_p (trapezoidal) and Rayleigh
+dissipation ∫ 2α_R T dt; ``total_energy = T + Π − W + dissipated`` is conserved up to the
+scheme's numerical dissipation (none for ρ∞ = 1, to O(h²)).
+"""
+
+from __future__ import annotations
+
+import functools
+from dataclasses import dataclass
+from typing import Any
+
+import numpy as np
+
+from biplan._errors import ConfigError, check_finite, check_range
+from biplan._jax import jax, jnp
+from biplan.assembly import Load, Model
+from biplan.inertia import mass_matrix
+from biplan.solvers import _dynkernel as dk
+from biplan.solvers.control import Control, ControlKind
+from biplan.solvers.newton import Solution, relaxed_reference
+from biplan.solvers.observe import observe_batch
+from biplan.solvers.results import Trajectory, TrajectoryStats, TrajectoryStatus
+
+__all__ = ["BackwardEuler", "GeneralizedAlpha", "LoadHistory", "integrate", "mass_matrix_at"]
+
+
+@dataclass(frozen=True)
+class GeneralizedAlpha:
+    """Generalized-α integrator settings.
+
+    Parameters
+    ----------
+    time_step : float
+        Nominal step h [s], > 0.
+    spectral_radius : float
+        ρ∞ ∈ [0, 1]: high-frequency numerical dissipation (1: none, second order for any ρ∞).
+    rayleigh : float
+        α_R [1/s] ≥ 0 of the mass-proportional damping D = α_R M.
+    atol : float
+        Newton tolerance on ‖r‖∞ per step (residual units N, mm).
+    max_iterations : int
+        Newton iterations per step.
+    max_halvings : int
+        Retries of a failed step, halving h each time.
+    save_every : int
+        Keep every k-th step in the Trajectory (the last is always kept).
+    energy_tolerance : float
+        A step may not create more than this energy [N·mm] (T + Π − W + dissipated); a
+        step that does (Newton tunnelling to another equilibrium) is retried with h/2.
+    """
+
+    time_step: float = 0.01
+    spectral_radius: float = 0.8
+    rayleigh: float = 0.0
+    atol: float = 1e-8
+    max_iterations: int = 25
+    max_halvings: int = 8
+    save_every: int = 1
+    energy_tolerance: float = 1e-5
+
+    def __post_init__(self) -> None:
+        check_range("GeneralizedAlpha.time_step", self.time_step, low=0.0)
+        check_range("GeneralizedAlpha.energy_tolerance", self.energy_tolerance, low=0.0)
+        check_range(
+            "GeneralizedAlpha.spectral_radius",
+            self.spectral_radius,
+            low=0.0,
+            high=1.0,
+            low_open=False,
+            high_open=False,
+        )
+        check_range("GeneralizedAlpha.rayleigh", self.rayleigh, low=0.0, low_open=False)
+        check_range("GeneralizedAlpha.atol", self.atol, low=0.0)
+        for name in ("max_iterations", "max_halvings", "save_every"):
+            v = getattr(self, name)
+            low = 0 if name == "max_halvings" else 1
+            if isinstance(v, bool) or not isinstance(v, int) or v < low:
+                raise ConfigError(f"GeneralizedAlpha.{name}", v, f"an integer ≥ {low}")
+
+    def coefficients(self) -> tuple[float, float, float, float]:
+        """(α_m, α_f, γ, β) of the method (Chung & Hulbert)."""
+        return tuple(float(c) for c in dk.coefficients(self.spectral_radius))  # type: ignore[return-value]
+
+    def describe(self) -> str:
+        return (
+            f"generalized-alpha(rho_inf={self.spectral_radius:g}, h={self.time_step:g} s, "
+            f"alpha_R={self.rayleigh:g}/s)"
+        )
+
+
+@dataclass(frozen=True)
+class BackwardEuler(GeneralizedAlpha):
+    """Implicit (backward) Euler on positions and velocities — Newmark with β = γ = 1,
+    α_m = α_f = 0: first order and strongly dissipative (MODEL §13 alternative). Robust for
+    selecting the branch reached after a snap, including contact impacts, at the price of
+    distorted transients. ``spectral_radius`` is ignored (ρ∞ = 0)."""
+
+    def coefficients(self) -> tuple[float, float, float, float]:
+        return (0.0, 0.0, 1.0, 1.0)
+
+    def describe(self) -> str:
+        return f"backward-euler(h={self.time_step:g} s, alpha_R={self.rayleigh:g}/s)"
+
+
+@dataclass(frozen=True)
+class LoadHistory:
+    """A piecewise-linear load history Λ(t) of a controlled quantity (constant outside).
+
+    Parameters
+    ----------
+    kind : ControlKind
+        Force [N], displacement [mm] or pressure [MPa].
+    times : tuple of float
+        Increasing breakpoints [s] (at most 16).
+    values : tuple of float
+        Λ at the breakpoints.
+    """
+
+    kind: ControlKind
+    times: tuple[float, ...]
+    values: tuple[float, ...]
+
+    def __post_init__(self) -> None:
+        if not isinstance(self.kind, ControlKind):
+            object.__setattr__(self, "kind", Control(self.kind, 0.0).kind)
+        t = np.asarray(self.times, dtype=float)
+        v = np.asarray(self.values, dtype=float)
+        if t.ndim != 1 or t.shape != v.shape or not 1 <= t.size <= dk.HISTORY_POINTS:
+            raise ConfigError(
+                "load.times/values",
+                (t.size, v.size),
+                f"equal lengths between 1 and {dk.HISTORY_POINTS}",
+            )
+        if not (np.all(np.isfinite(t)) and np.all(np.isfinite(v))):
+            raise ConfigError("load.times/values", "non-finite", "finite numbers")
+        if np.any(np.diff(t) <= 0):
+            raise ConfigError("load.times", tuple(t), "strictly increasing times [s]")
+
+    @classmethod
+    def ramp(cls, rate: float = 0.8, until: float = 2.0, kind: str = "force") -> LoadHistory:
+        """Λ(t) = rate·t for 0 ≤ t ≤ until, then held (the paper's F(t) = 0.8 N/s · t)."""
+        rate = check_finite("load.rate", rate)
+        check_range("load.until", until, low=0.0)
+        return cls(ControlKind(kind), (0.0, float(until)), (0.0, rate * float(until)))
+
+    @classmethod
+    def constant(cls, value: float, kind: str = "force") -> LoadHistory:
+        """Λ(t) = value for all t."""
+        return cls(ControlKind(kind), (0.0,), (check_finite("load.value", value),))
+
+    def value(self, t: np.ndarray | float) -> np.ndarray:
+        """Λ(t)."""
+        return np.interp(t, self.times, self.values)
+
+    def padded(self) -> tuple[np.ndarray, np.ndarray]:
+        t = np.asarray(self.times, dtype=float)
+        v = np.asarray(self.values, dtype=float)
+        pad = dk.HISTORY_POINTS - t.size
+        last = t[-1]
+        return (
+            np.concatenate([t, last + 1.0 + np.arange(pad)]),
+            np.concatenate([v, np.full(pad, v[-1])]),
+        )
+
+
+@functools.lru_cache(maxsize=16)
+def _mass_kernel(layout: Any) -> Any:
+    return jax.jit(functools.partial(mass_matrix, layout))
+
+
+def mass_matrix_at(model: Model, q: np.ndarray) -> np.ndarray:
+    """M(q) (n_q, n_q) of ``model`` [t·mm² per unit² of q] (SI governing equations)."""
+    q = np.asarray(q, dtype=float)
+    if q.shape != (model.n_coordinates,):
+        raise ConfigError("q", q.shape, f"shape ({model.n_coordinates},)")
+    m = _mass_kernel(model.layout)(model.params, jnp.asarray(q), model.tube.surface_density)
+    return np.asarray(m)
+
+
+def _initial_state(model: Model, z0: np.ndarray, v0: np.ndarray, load: Load) -> dk.DynState:
+    """Consistent initial acceleration: [[M, Aᵀ], [A, 0]] [q̈; ν] = [−f(q0); 0] with A the
+    guides and the closed contacts (v0 assumed tangent to them)."""
+    nq = model.n_coordinates
+    q0 = z0[:nq]
+    r = model.residual(model.pack(q0), load)[:nq]  # ∇Π − F∇z_p (no multipliers)
+    m = mass_matrix_at(model, q0)
+    gaps = model.contact_gaps(q0)
+    a = np.concatenate([model.constraint_jacobian(q0), model.contact_jacobian(q0)[gaps < 1e-8]])
+    if load.is_displacement_controlled:
+        a = np.concatenate([a, model.load_gradient(q0)[None, :]])
+    k = a.shape[0]
+    mat = np.block([[m, a.T], [a, np.zeros((k, k))]])
+    sol = np.linalg.lstsq(mat, np.concatenate([-r, np.zeros(k)]), rcond=None)[0]
+    qdd = sol[:nq]
+    force = -z0[-1] if load.is_displacement_controlled else float(load.force)
+    return dk.DynState(
+        jnp.asarray(z0),
+        jnp.asarray(v0),
+        jnp.asarray(qdd),
+        jnp.asarray(qdd),
+        jnp.asarray(force),
+        jnp.asarray(model.load_displacement(q0)),
+        jnp.asarray(0.0),
+    )
+
+
+def integrate(
+    model: Model,
+    scheme: GeneralizedAlpha | None = None,
+    q0: Solution | np.ndarray | None = None,
+    v0: np.ndarray | None = None,
+    t_end: float = 2.0,
+    load: LoadHistory | None = None,
+) -> Trajectory:
+    """Integrate the equations of motion from t = 0 to ``t_end`` [s].
+
+    Parameters
+    ----------
+    model : Model
+    scheme : GeneralizedAlpha, optional
+    q0 : Solution or ndarray, optional
+        Start state (a converged Solution, or coordinates satisfying the guides); default the
+        relaxed reference.
+    v0 : ndarray, optional
+        Initial velocity q̇ (n_q,); default at rest.
+    t_end : float
+        Final time [s] > 0.
+    load : LoadHistory, optional
+        Default the paper's force ramp (0.8 N/s for 2 s).
+
+    Returns
+    -------
+    Trajectory
+        Check ``trajectory.status``; on a failed step the trajectory ends at the last
+        converged time.
+    """
+    scheme = scheme or GeneralizedAlpha()
+    load = load or LoadHistory.ramp()
+    check_range("t_end", t_end, low=0.0)
+    nq = model.n_coordinates
+    if q0 is None:
+        z0 = relaxed_reference(model).z
+    elif isinstance(q0, Solution):
+        if not q0.converged:
+            raise ConfigError("q0", q0.status.name, "a converged Solution")
+        z0 = np.asarray(q0.z, dtype=float)
+    else:
+        q = np.asarray(q0, dtype=float)
+        if q.shape != (nq,) or not np.all(np.isfinite(q)):
+            raise ConfigError("q0", q.shape, f"finite coordinates of shape ({nq},)")
+        g = float(np.max(np.abs(model.constraints(q)), initial=0.0))
+        if g > 1e-8:
+            raise ConfigError("q0", f"max |g| = {g:.2e} mm", "coordinates satisfying the guides")
+        z0 = model.pack(q)
+    v = np.zeros(nq) if v0 is None else np.asarray(v0, dtype=float)
+    if v.shape != (nq,) or not np.all(np.isfinite(v)):
+        raise ConfigError("v0", v.shape, f"finite velocities of shape ({nq},)")
+
+    control = Control(load.kind, float(load.values[-1]))
+    ctl = control.coefficients(model)
+    times, values = load.padded()
+    settings = np.array(
+        [
+            *scheme.coefficients(),
+            scheme.rayleigh,
+            model.tube.surface_density,
+            scheme.atol,
+            scheme.max_iterations,
+            scheme.energy_tolerance,
+        ]
+    )
+    load0 = _load_at(ctl, load.value(0.0))
+    state = _initial_state(model, z0, v, load0)
+    run = dk.compiled_chunk(model.layout)
+    args = (jnp.asarray(ctl), jnp.asarray(times), jnp.asarray(values), jnp.asarray(settings))
+    kin0 = float(
+        dk.compiled_kinetic(model.layout)(
+            model.params, jnp.asarray(z0[:nq]), jnp.asarray(v), model.tube.surface_density
+        )
+    )
+
+    ts, zs, vs, kins, its = [0.0], [np.asarray(z0)], [v], [kin0], [0]
+    t, h0 = 0.0, scheme.time_step
+    halvings, rejected, status = 0, 0, TrajectoryStatus.COMPLETED
+    while t < t_end * (1 - 1e-12):
+        h = h0 * 0.5**halvings
+        grid = t + h * np.arange(1, dk.CHUNK_STEPS + 1)
+        grid = np.minimum(grid, t_end)
+        states, ok, n_it, kin = run(model.params, state, jnp.asarray(t), jnp.asarray(grid), *args)
+        ok = np.asarray(ok)
+        n_ok = int(np.argmin(ok)) if not ok.all() else ok.size
+        # steps that land exactly on t_end repeat it: keep the first only
+        n_keep = min(n_ok, int(np.searchsorted(grid, t_end, side="left")) + 1)
+        if n_keep:
+            zs_c = np.asarray(states.z)[:n_keep]
+            zs.extend(zs_c)
+            vs.extend(np.asarray(states.v)[:n_keep])
+            kins.extend(np.asarray(kin)[:n_keep])
+            its.extend(np.asarray(n_it)[:n_keep])
+            ts.extend(grid[:n_keep])
+            state = jax.tree_util.tree_map(lambda a, k=n_keep: a[k - 1], states)
+            t = float(grid[n_keep - 1])
+        if n_ok < ok.size and t < t_end * (1 - 1e-12):
+            rejected += 1
+            if halvings >= scheme.max_halvings:
+                status = TrajectoryStatus.STEP_FAILED
+                break
+            halvings += 1
+        elif halvings:
+            halvings -= 1
+    z_all = np.asarray(zs)
+    if not np.all(np.isfinite(z_all)):
+        status = TrajectoryStatus.NONFINITE
+    t_all = np.asarray(ts)
+    lam = load.value(t_all)
+    obs = observe_batch(model.layout, model.params, z_all, _load_at(ctl, lam))
+    kinetic = np.asarray(kins)
+    force, zp = np.asarray(obs.force), np.asarray(obs.displacement)
+    work = np.concatenate([[0.0], np.cumsum(0.5 * (force[1:] + force[:-1]) * np.diff(zp))])
+    power = 2.0 * scheme.rayleigh * kinetic
+    dissipated = np.concatenate([[0.0], np.cumsum(0.5 * (power[1:] + power[:-1]) * np.diff(t_all))])
+    total = kinetic + np.asarray(obs.energy) - work + dissipated
+    keep = np.arange(0, len(t_all), scheme.save_every)
+    if keep[-1] != len(t_all) - 1:
+        keep = np.append(keep, len(t_all) - 1)
+    dt = np.diff(t_all)
+    stats = TrajectoryStats(
+        n_steps=len(t_all) - 1,
+        n_rejected=rejected,
+        newton_iterations=int(np.sum(its)),
+        smallest_step=float(dt.min()) if dt.size else float("nan"),
+        largest_step=float(dt.max()) if dt.size else float("nan"),
+        max_constraint_residual=float(np.max(obs.constraint_residual)),
+    )
+    from biplan.solvers.results import _common
+
+    common = _common(model, obs, lam)
+    return Trajectory(
+        model=model,
+        control=control,
+        scheme=scheme.describe(),
+        time=t_all[keep],
+        **{k: np.asarray(v)[keep] for k, v in common.items()},
+        kinetic_energy=kinetic[keep],
+        external_work=work[keep],
+        dissipated_energy=dissipated[keep],
+        total_energy=total[keep],
+        q=z_all[keep, :nq],
+        velocity=np.asarray(vs)[keep],
+        z=z_all[keep],
+        status=status,
+        stats=stats,
+    )
+
+
+def _load_at(ctl: np.ndarray, lam: np.ndarray | float) -> Load:
+    lam = np.asarray(lam, dtype=float)
+    return Load(ctl[0] * lam, ctl[1] * lam, np.full_like(lam, ctl[2]) if lam.ndim else ctl[2])

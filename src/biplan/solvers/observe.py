@@ -1,0 +1,169 @@
+"""Batched observation of equilibrium states: endpoint, energies, phase fractions, stability.
+
+One jitted, ``vmap``-ped kernel per tube layout evaluates, for a chunk of packed states
+z = [q, λ, λ_∂, μ] and their loads, everything a path or trajectory records per step:
+
+* end force F [N] (the applied one, or the reaction −μ under displacement control), the
+  load-point displacement z_p [mm] and the endpoint u_z, u_r [mm], θ [rad] (MODEL §9);
+* the strain energy of every fold [N·mm] and the fraction of each fold's length on the closed,
+  spinodal and open branch of its law (length-weighted over a connector's fields);
+* the smallest eigenvalue of the reduced Hessian H_r = Nᵀ K N (main "Equilibrium Stability",
+  MODEL §12) and the dimension of N, with the active set of :mod:`biplan.analysis.stability`
+  (guides, contacts with λ_∂ > 1e-6 and w_∂ < 1e-4, the end constraint under displacement
+  control).
+
+The reduced eigenvalue is computed without a data-dependent basis size, so it can be jitted:
+with A the active-constraint Jacobian (inactive rows zeroed) and A = U Σ Vᵀ, the rows of Vᵀ
+past the numerical rank span the null space; the rotated Hessian V K Vᵀ is restricted to them
+and the complement is shifted to σ = ‖K‖_F + 1, above every eigenvalue of the null-space block,
+so the smallest eigenvalue of the shifted matrix is λ_min(H_r). ``analysis.stability`` is the
+NumPy reference of the same test; the test-suite checks that both agree.
+"""
+
+from __future__ import annotations
+
+import functools
+from typing import Any, NamedTuple
+
+import numpy as np
+
+from biplan._jax import jax, jnp
+from biplan.assembly import (
+    Load,
+    ModelParams,
+    TubeLayout,
+    guide_values,
+    phase_fractions,
+    sizes,
+    state_data,
+)
+
+__all__ = [
+    "ACTIVE_GAP",
+    "ACTIVE_MULTIPLIER",
+    "CHUNK",
+    "RANK_RTOL",
+    "STABILITY_TOL",
+    "Observation",
+    "min_reduced_eigenvalue",
+    "observe",
+    "observe_batch",
+]
+
+Array = Any
+
+#: A contact is active when its multiplier exceeds this [N] and its gap is below ACTIVE_GAP [mm].
+ACTIVE_MULTIPLIER = 1e-6
+ACTIVE_GAP = 1e-4
+#: Relative SVD rank tolerance of the active-constraint Jacobian.
+RANK_RTOL = 1e-9
+#: λ_min(H_r) above this is stable, below −STABILITY_TOL unstable, critical in between.
+STABILITY_TOL = 1e-8
+#: States are observed in chunks of this many (one compiled shape).
+CHUNK = 16
+
+
+class Observation(NamedTuple):
+    """Observables of a batch of states (leading axis: state)."""
+
+    force: Array  # [N]
+    displacement: Array  # load-point z_p [mm]
+    u_z: Array
+    u_r: Array
+    theta: Array
+    energy: Array  # Π [N·mm]
+    fold_energy: Array  # (n_folds,) helical then circular [N·mm]
+    phase_fraction: Array  # (n_folds, 3): closed, spinodal, open
+    min_eigenvalue: Array  # +inf when contact-locked
+    dof: Array  # dimension of the admissible perturbation space
+    n_active_contacts: Array
+    constraint_residual: Array  # max |g| [mm]
+
+
+def min_reduced_eigenvalue(k: Array, a: Array, active: Array) -> tuple[Array, Array]:
+    """(λ_min(Nᵀ K N), dim N) for N the null space of the active rows of ``a``.
+
+    Parameters
+    ----------
+    k : array (n, n)
+        Symmetric Lagrangian Hessian.
+    a : array (m, n)
+        Constraint Jacobian (all candidate rows).
+    active : array (m,) of bool
+        Which rows are active.
+    """
+    n = k.shape[0]
+    a = jnp.where(active[:, None], a, 0.0)
+    _, s, vt = jnp.linalg.svd(a, full_matrices=True)
+    sig = jnp.zeros(n).at[: min(a.shape[0], n)].set(s[: min(a.shape[0], n)])
+    rank = jnp.sum(sig > RANK_RTOL * jnp.maximum(jnp.max(sig), 1e-300))
+    null = jnp.arange(n) >= rank
+    k = 0.5 * (k + k.T)
+    rot = vt @ k @ vt.T
+    shift = jnp.sqrt(jnp.sum(k**2)) + 1.0
+    both = null[:, None] & null[None, :]
+    m = jnp.where(both, rot, 0.0) + jnp.diag(jnp.where(null, 0.0, shift))
+    lam = jnp.linalg.eigvalsh(m)[0]
+    dof = n - rank
+    return jnp.where(dof > 0, lam, jnp.inf), dof
+
+
+def observe(
+    layout: TubeLayout, p: ModelParams, z: Array, load: Load, weak_contacts: bool = False
+) -> Observation:
+    """Observables of one packed state z under ``load`` (pure; see module docstring)."""
+    nq, ng, nc = sizes(layout)
+    data = state_data(layout, p, z, load)
+    lam_c = z[nq + ng : nq + ng + nc]
+    closed = data.gaps < ACTIVE_GAP
+    contact = closed if weak_contacts else closed & (lam_c > ACTIVE_MULTIPLIER)
+    d = load.displacement_control > 0.5
+    active = jnp.concatenate([jnp.ones(ng, bool), contact, d[None]])
+    lam_min, dof = min_reduced_eigenvalue(data.lagrangian_hessian, data.constraint_jacobian, active)
+    force = jnp.where(d, -z[-1], load.force)
+    return Observation(
+        force=force,
+        displacement=data.load_displacement,
+        u_z=data.endpoint.u_z,
+        u_r=data.endpoint.u_r,
+        theta=data.endpoint.theta,
+        energy=data.energy,
+        fold_energy=jnp.concatenate([data.helical_energy, data.circular_energy]),
+        phase_fraction=phase_fractions(layout, p, z[:nq]),
+        min_eigenvalue=lam_min,
+        dof=dof,
+        n_active_contacts=jnp.sum(contact),
+        constraint_residual=jnp.max(jnp.abs(guide_values(layout, p, z[:nq]))),
+    )
+
+
+@functools.lru_cache(maxsize=64)
+def _batched(layout: TubeLayout) -> Any:
+    weak = layout.options.weak_contacts_active
+    fn = functools.partial(observe, layout, weak_contacts=weak)
+    return jax.jit(jax.vmap(fn, in_axes=(None, 0, 0)))
+
+
+def observe_batch(layout: TubeLayout, params: ModelParams, z: Array, loads: Load) -> Observation:
+    """Observe states ``z`` (k, n_z) under ``loads`` (a Load of (k,) arrays), in chunks.
+
+    Returns NumPy arrays with leading axis k. Chunks of :data:`CHUNK` states keep one
+    compiled shape whatever k is.
+    """
+    z = np.asarray(z, dtype=float)
+    k = z.shape[0]
+    cols = [np.broadcast_to(np.asarray(v, dtype=float), (k,)) for v in loads]
+    fn = _batched(layout)
+    parts: list[Observation] = []
+    for lo in range(0, k, CHUNK):
+        hi = min(lo + CHUNK, k)
+        pad = CHUNK - (hi - lo)
+        zc = np.concatenate([z[lo:hi], np.repeat(z[hi - 1 : hi], pad, axis=0)])
+        lc = Load(
+            *(jnp.asarray(np.concatenate([c[lo:hi], np.repeat(c[hi - 1], pad)])) for c in cols)
+        )
+        out = fn(params, jnp.asarray(zc), lc)
+        parts.append(Observation(*(np.asarray(v)[: hi - lo] for v in out)))
+    if not parts:
+        raise ValueError("no states to observe")
+    return Observation(*(np.concatenate(vs, axis=0) for vs in zip(*parts, strict=True)))

@@ -1,0 +1,460 @@
+"""Frozen results of path following and time integration, and their labelled form.
+
+:class:`Path` (one entry per equilibrium step) and :class:`Trajectory` (one entry per saved
+time) share the observables of :class:`~biplan.solvers.observe.Observation` and convert to an
+``xarray.Dataset`` with :meth:`to_dataset` (dims ``step`` or ``time``; ``coordinate``, ``fold``,
+``phase``; units in each variable's ``units`` attribute). :func:`biplan.io.results.dataset` adds
+the tube's TOML configuration to the attributes, so that a saved file can be re-opened as a
+model (:func:`biplan.io.results.model_of`).
+"""
+
+from __future__ import annotations
+
+import enum
+from dataclasses import dataclass, field
+from typing import Any
+
+import numpy as np
+
+from biplan.assembly import Model
+from biplan.solvers.control import Control
+from biplan.solvers.observe import STABILITY_TOL, Observation
+
+__all__ = [
+    "PHASES",
+    "Event",
+    "Path",
+    "PathStats",
+    "PathStatus",
+    "Trajectory",
+    "TrajectoryStats",
+    "TrajectoryStatus",
+    "fold_names",
+]
+
+PHASES = ("closed", "spinodal", "open")
+
+UNITS = {
+    "force": "N",
+    "displacement": "mm",
+    "u_z": "mm",
+    "u_r": "mm",
+    "theta": "rad",
+    "energy": "N mm",
+    "helical_energy": "N mm",
+    "circular_energy": "N mm",
+    "fold_energy": "N mm",
+    "phase_fraction": "1",
+    "min_eigenvalue": "N mm",
+    "stable": "1",
+    "q": "mm or rad",
+    "constraint_residual": "mm",
+    "kinetic_energy": "N mm",
+    "external_work": "N mm",
+    "dissipated_energy": "N mm",
+    "total_energy": "N mm",
+    "velocity": "mm/s or rad/s",
+    "time": "s",
+    "arclength": "1",
+}
+
+
+class PathStatus(enum.Enum):
+    """Why a path ended."""
+
+    COMPLETED = 0
+    MAX_STEPS = 1
+    STALLED = 2
+    NONFINITE = 3
+
+    @staticmethod
+    def from_code(code: int) -> PathStatus:
+        return PathStatus(code) if code in (0, 1, 2, 3) else PathStatus.STALLED
+
+    @property
+    def message(self) -> str:
+        return {
+            0: "reached the stop value",
+            1: "stopped at the maximum number of steps",
+            2: (
+                "stalled: the step fell below min_step without a converged corrector "
+                "(a limit point of the controlled quantity under load stepping — use "
+                "ArcLength or dynamics — or the end of the admissible range, e.g. full contact)"
+            ),
+            3: "a state became non-finite",
+        }[self.value]
+
+
+class TrajectoryStatus(enum.Enum):
+    """Why a time integration ended."""
+
+    COMPLETED = 0
+    STEP_FAILED = 1
+    NONFINITE = 2
+
+    @property
+    def message(self) -> str:
+        return {
+            0: "reached t_end",
+            1: "a time step did not converge even at the smallest step",
+            2: "the state became non-finite",
+        }[self.value]
+
+
+@dataclass(frozen=True)
+class Event:
+    """A located sign change of λ_min(H_r) along a path."""
+
+    kind: str  # "limit point" or "bifurcation"
+    step: int  # index of the located state in the path
+    load_parameter: float
+    force: float  # [N]
+    displacement: float  # [mm]
+
+
+@dataclass(frozen=True)
+class PathStats:
+    """Work done by a path solve."""
+
+    n_steps: int
+    n_cutbacks: int
+    newton_iterations: int
+    n_events: int
+    smallest_step: float
+    largest_step: float
+
+
+@dataclass(frozen=True)
+class TrajectoryStats:
+    """Work done by a time integration."""
+
+    n_steps: int
+    n_rejected: int
+    newton_iterations: int
+    smallest_step: float
+    largest_step: float
+    max_constraint_residual: float  # [mm]
+
+
+def fold_names(model: Model) -> list[str]:
+    """'helical 1'…'helical N' then the circular folds 'circular 0|1' (base fold) … ."""
+    n = model.layout.n_modules
+    names = [f"helical {i + 1}" for i in range(n)]
+    for c in model.layout.connectors:
+        lower = 0 if c.lower is None else c.lower + 1
+        names.append(f"circular {lower}|{c.upper + 1}")
+    return names
+
+
+def _common(model: Model, obs: Observation, control_value: np.ndarray) -> dict[str, np.ndarray]:
+    lam = np.asarray(obs.min_eigenvalue, dtype=float)
+    n_h = model.layout.n_modules
+    fe = np.asarray(obs.fold_energy)
+    return {
+        "force": np.asarray(obs.force, float),
+        "displacement": np.asarray(obs.displacement, float),
+        "u_z": np.asarray(obs.u_z, float),
+        "u_r": np.asarray(obs.u_r, float),
+        "theta": np.asarray(obs.theta, float),
+        "energy": np.asarray(obs.energy, float),
+        "helical_energy": fe[:, :n_h].sum(axis=1),
+        "circular_energy": fe[:, n_h:].sum(axis=1),
+        "fold_energy": fe,
+        "phase_fraction": np.asarray(obs.phase_fraction, float),
+        "min_eigenvalue": lam,
+        "stable": (lam > STABILITY_TOL),
+        "constraint_residual": np.asarray(obs.constraint_residual, float),
+        "load_parameter": np.asarray(control_value, float),
+    }
+
+
+def _version() -> str:
+    from importlib.metadata import PackageNotFoundError, version
+
+    try:
+        return version("biplan")
+    except PackageNotFoundError:  # pragma: no cover
+        return "0.0.0+unknown"
+
+
+class _Labelled:
+    """Shared conversion to an xarray Dataset."""
+
+    model: Model
+    control: Control
+    q: np.ndarray
+    _dim: str = "step"
+
+    def _variables(self) -> dict[str, np.ndarray]:
+        raise NotImplementedError
+
+    def _attrs(self) -> dict[str, Any]:
+        raise NotImplementedError
+
+    def to_dataset(self) -> Any:
+        """The result as an ``xarray.Dataset`` (see module docstring)."""
+        import xarray as xr
+
+        dim = self._dim
+        data: dict[str, Any] = {}
+        for name, v in self._variables().items():
+            v = np.asarray(v)
+            if name in ("fold_energy",):
+                dims: tuple[str, ...] = (dim, "fold")
+            elif name == "phase_fraction":
+                dims = (dim, "fold", "phase")
+            elif name in ("q", "velocity"):
+                dims = (dim, "coordinate")
+            else:
+                dims = (dim,)
+            if v.dtype == bool:
+                v = v.astype(np.int8)
+            attrs = {
+                "units": UNITS.get(
+                    name, self.control.kind.unit if name == "load_parameter" else "1"
+                )
+            }
+            data[name] = (dims, v, attrs)
+        n = len(next(iter(self._variables().values())))
+        coords: dict[str, Any] = {
+            "fold": fold_names(self.model),
+            "phase": list(PHASES),
+            "coordinate": np.arange(self.q.shape[1]),
+        }
+        if dim == "step":
+            coords["step"] = np.arange(n)
+        attrs = {
+            "kind": "path" if dim == "step" else "trajectory",
+            "control": self.control.kind.value,
+            "control_unit": self.control.kind.unit,
+            "control_stop": self.control.stop,
+            "initial_length": self.model.tube.initial_length,
+            "biplan_version": _version(),
+            **self._attrs(),
+        }
+        ds = xr.Dataset(data, coords=coords, attrs=attrs)
+        return ds
+
+
+@dataclass(frozen=True)
+class Path(_Labelled):
+    """An equilibrium path (one entry per accepted step; located events inserted).
+
+    Attributes
+    ----------
+    load_parameter : ndarray
+        Λ at each state: F [N], U [mm] or p [MPa] (``control.kind``).
+    force, displacement, u_z, u_r, theta, energy : ndarray
+        End force [N], load-point displacement [mm], endpoint [mm, mm, rad], Π [N·mm].
+    fold_energy : ndarray (step, fold)
+    phase_fraction : ndarray (step, fold, 3)
+        Closed, spinodal, open fraction of each fold's length.
+    min_eigenvalue : ndarray
+        λ_min(H_r) (+inf when contact-locked); ``stable`` where > 1e-8.
+    is_event : ndarray of bool
+        States inserted at located limit points / bifurcations.
+    events : tuple of Event
+    direction : ndarray
+        Λ-component of the path tangent (changes sign at limit points).
+    q, z : ndarray
+        Coordinates (step, n_q) and packed unknowns (step, n_z).
+    status : PathStatus
+    stats : PathStats
+    """
+
+    model: Model = field(repr=False)
+    control: Control
+    method: str
+    load_parameter: np.ndarray
+    force: np.ndarray
+    displacement: np.ndarray
+    u_z: np.ndarray
+    u_r: np.ndarray
+    theta: np.ndarray
+    energy: np.ndarray
+    helical_energy: np.ndarray
+    circular_energy: np.ndarray
+    fold_energy: np.ndarray
+    phase_fraction: np.ndarray
+    min_eigenvalue: np.ndarray
+    stable: np.ndarray
+    constraint_residual: np.ndarray
+    is_event: np.ndarray
+    events: tuple[Event, ...]
+    direction: np.ndarray
+    q: np.ndarray = field(repr=False)
+    z: np.ndarray = field(repr=False)
+    status: PathStatus = PathStatus.COMPLETED
+    stats: PathStats | None = None
+
+    @classmethod
+    def build(
+        cls,
+        *,
+        model: Model,
+        control: Control,
+        method: str,
+        z: np.ndarray,
+        load_parameter: np.ndarray,
+        observation: Observation,
+        event_flags: np.ndarray,
+        events: tuple[Event, ...],
+        status: PathStatus,
+        stats: PathStats,
+        direction: np.ndarray,
+    ) -> Path:
+        common = _common(model, observation, load_parameter)
+        return cls(
+            model=model,
+            control=control,
+            method=method,
+            is_event=np.asarray(event_flags, bool),
+            events=events,
+            direction=np.asarray(direction, float),
+            q=np.asarray(z)[:, : model.n_coordinates],
+            z=np.asarray(z),
+            status=status,
+            stats=stats,
+            **common,
+        )
+
+    @property
+    def n_steps(self) -> int:
+        return len(self.load_parameter)
+
+    @property
+    def completed(self) -> bool:
+        return self.status is PathStatus.COMPLETED
+
+    @property
+    def message(self) -> str:
+        s = self.stats
+        extra = f"; {s.n_steps} steps, {s.n_cutbacks} cut-backs" if s else ""
+        return f"{self.status.message}{extra}"
+
+    @property
+    def limit_points(self) -> tuple[Event, ...]:
+        return tuple(e for e in self.events if e.kind == "limit point")
+
+    def _variables(self) -> dict[str, np.ndarray]:
+        names = [
+            "load_parameter",
+            "force",
+            "displacement",
+            "u_z",
+            "u_r",
+            "theta",
+            "energy",
+            "helical_energy",
+            "circular_energy",
+            "fold_energy",
+            "phase_fraction",
+            "min_eigenvalue",
+            "stable",
+            "constraint_residual",
+            "q",
+        ]
+        out = {n: getattr(self, n) for n in names}
+        out["limit_point"] = self.is_event
+        return out
+
+    def _attrs(self) -> dict[str, Any]:
+        s = self.stats
+        return {
+            "method": self.method,
+            "status": self.status.name,
+            "message": self.message,
+            "n_cutbacks": s.n_cutbacks if s else 0,
+            "events": "; ".join(
+                f"{e.kind} at step {e.step}: F = {e.force:.6g} N, z_p = {e.displacement:.6g} mm"
+                for e in self.events
+            ),
+        }
+
+
+@dataclass(frozen=True)
+class Trajectory(_Labelled):
+    """A time history (one entry per saved time).
+
+    Attributes
+    ----------
+    time : ndarray [s]
+    force, displacement, u_z, u_r, theta, energy, … : as for :class:`Path`
+    kinetic_energy, external_work, dissipated_energy : ndarray [N·mm]
+    total_energy : ndarray [N·mm]
+        Kinetic + strain − external work + dissipated (conserved by an exact integrator).
+    q, velocity : ndarray (time, n_q)
+    status : TrajectoryStatus
+    stats : TrajectoryStats
+    """
+
+    model: Model = field(repr=False)
+    control: Control
+    scheme: str
+    time: np.ndarray
+    load_parameter: np.ndarray
+    force: np.ndarray
+    displacement: np.ndarray
+    u_z: np.ndarray
+    u_r: np.ndarray
+    theta: np.ndarray
+    energy: np.ndarray
+    helical_energy: np.ndarray
+    circular_energy: np.ndarray
+    fold_energy: np.ndarray
+    phase_fraction: np.ndarray
+    min_eigenvalue: np.ndarray
+    stable: np.ndarray
+    constraint_residual: np.ndarray
+    kinetic_energy: np.ndarray
+    external_work: np.ndarray
+    dissipated_energy: np.ndarray
+    total_energy: np.ndarray
+    q: np.ndarray = field(repr=False)
+    velocity: np.ndarray = field(repr=False)
+    z: np.ndarray = field(repr=False)
+    status: TrajectoryStatus = TrajectoryStatus.COMPLETED
+    stats: TrajectoryStats | None = None
+    _dim: str = field(default="time", repr=False)
+
+    @property
+    def completed(self) -> bool:
+        return self.status is TrajectoryStatus.COMPLETED
+
+    @property
+    def message(self) -> str:
+        s = self.stats
+        extra = f"; {s.n_steps} steps, {s.n_rejected} rejected" if s else ""
+        return f"{self.status.message}{extra}"
+
+    def _variables(self) -> dict[str, np.ndarray]:
+        names = [
+            "load_parameter",
+            "force",
+            "displacement",
+            "u_z",
+            "u_r",
+            "theta",
+            "energy",
+            "helical_energy",
+            "circular_energy",
+            "fold_energy",
+            "phase_fraction",
+            "min_eigenvalue",
+            "stable",
+            "constraint_residual",
+            "kinetic_energy",
+            "external_work",
+            "dissipated_energy",
+            "total_energy",
+            "q",
+            "velocity",
+        ]
+        return {n: getattr(self, n) for n in names}
+
+    def _attrs(self) -> dict[str, Any]:
+        return {"scheme": self.scheme, "status": self.status.name, "message": self.message}
+
+    def to_dataset(self) -> Any:
+        ds = super().to_dataset()
+        return ds.assign_coords(time=("time", np.asarray(self.time), {"units": "s"}))
