@@ -5,6 +5,7 @@ from biplan.solvers.continuation import LoadStepping as LoadStepping
 from biplan.solvers.continuation import trace_path as trace_path
 from biplan.solvers.control import Control as Control
 from biplan.solvers.control import ControlKind as ControlKind
+from biplan.solvers.dynamics import BackwardEuler as BackwardEuler
 from biplan.solvers.dynamics import GeneralizedAlpha as GeneralizedAlpha
 from biplan.solvers.dynamics import LoadHistory as LoadHistory
 from biplan.solvers.dynamics import integrate as integrate
@@ -21,6 +22,7 @@ from biplan.solvers.results import TrajectoryStatus as TrajectoryStatus
 
 __all__ = [
     "ArcLength",
+    "BackwardEuler",
     "Control",
     "ControlKind",
     "Event",

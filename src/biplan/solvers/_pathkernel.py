@@ -154,7 +154,7 @@ def path_loop(
         lam=jnp.zeros(buffer_size).at[0].set(lam0),
         tangent=jnp.zeros((buffer_size, n + 1)).at[0].set(t0),
         step=jnp.zeros(buffer_size),
-        iterations=jnp.zeros(buffer_size, dtype=jnp.int32),
+        iterations=jnp.zeros(buffer_size, dtype=int),
         count=jnp.asarray(1),
         cutbacks=jnp.asarray(0),
         status=jnp.asarray(RUNNING),

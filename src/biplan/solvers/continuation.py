@@ -59,7 +59,7 @@ class _Stepper:
         name = type(self).__name__
         check_range(f"{name}.initial_step", self.initial_step, low=0.0)
         check_range(f"{name}.min_step", self.min_step, low=0.0, high=self.initial_step)
-        check_range(f"{name}.max_step", self.max_step, low=self.initial_step)
+        check_range(f"{name}.max_step", self.max_step, low=self.initial_step, low_open=False)
         check_range(f"{name}.grow", self.grow, low=1.0)
         check_range(f"{name}.atol", self.atol, low=0.0)
         check_range(f"{name}.event_tolerance", self.event_tolerance, low=0.0, high=1.0)
