@@ -30,7 +30,9 @@ PNG_SIGNATURE = b"\x89PNG\r\n\x1a\n"
 @pytest.fixture(scope="module")
 def demo_run(tmp_path_factory: pytest.TempPathFactory):
     out = tmp_path_factory.mktemp("demo") / "out"
-    result = runner.invoke(app, ["demo", "--out", str(out), "--steps", "12", "--quiet"])
+    result = runner.invoke(
+        app, ["demo", "--out", str(out), "--steps", "12", "--quiet", "--no-animate"]
+    )
     return result, out
 
 
@@ -56,6 +58,19 @@ def test_demo_exits_cleanly_and_summarises(demo_run) -> None:
     assert result.exception is None
     assert "Phase 1 peak force" in result.output and " N at U = " in result.output
     assert "┏" not in result.output  # --quiet: no table
+    assert "phase-1 peak force" in result.output
+    assert "spinodal regime" in result.output
+    assert "at 1.6 N (end of the ramp): u_z/l0 = " in result.output
+
+
+def test_demo_writes_ramp_and_path(demo_run) -> None:
+    _, out = demo_run
+    for name in ("ramp", "path"):
+        assert (out / f"{name}.nc").stat().st_size > 1000
+        header = (out / f"{name}.csv").read_text().splitlines()[1].split(",")
+        assert {"force", "u_z", "u_r", "theta", "energy", "min_eigenvalue", "stable"} <= set(header)
+    assert "t" in (out / "ramp.csv").read_text().splitlines()[1].split(",")
+    assert (out / "response.png").read_bytes().startswith(PNG_SIGNATURE)
 
 
 def test_demo_writes_pngs(demo_run) -> None:

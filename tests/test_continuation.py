@@ -112,7 +112,9 @@ def test_force_arclength_passes_the_limit_point_on_the_same_curve(displacement_p
         start = make_solution(
             dp.model, dp.z[j], Load.of_displacement(dp.displacement[j]), Status.CONVERGED, 0.0, 0
         )
-        s = biplan.solve_equilibrium(dp.model, None, start, Load.of_displacement(fp.displacement[i]))
+        s = biplan.solve_equilibrium(
+            dp.model, None, start, Load.of_displacement(fp.displacement[i])
+        )
         assert s.converged
         assert s.force == pytest.approx(fp.force[i], abs=1e-6)
     assert fp.constraint_residual.max() < 1e-8
@@ -144,17 +146,25 @@ def test_compression_past_full_contact_stops_with_a_status(model6):
 def test_pressure_control_is_an_end_force(model6):
     p_stop = 0.1  # MPa
     p = biplan.trace_path(
-        model6, biplan.LoadStepping(initial_step=0.02, max_step=0.05), None, biplan.Control.pressure(p_stop)
+        model6,
+        biplan.LoadStepping(initial_step=0.02, max_step=0.05),
+        None,
+        biplan.Control.pressure(p_stop),
     )
-    area = np.pi * model6.tube.development.radius ** 2
+    area = np.pi * model6.tube.development.radius**2
     assert p.completed
     assert p.force[-1] == pytest.approx(p_stop * area)
-    f = biplan.solve_equilibrium(model6, None, make_solution(model6, p.z[-1], Load.of_force(p.force[-1]), Status.CONVERGED, 0.0, 0), Load.of_force(p_stop * area))
+    f = biplan.solve_equilibrium(
+        model6,
+        None,
+        make_solution(model6, p.z[-1], Load.of_force(p.force[-1]), Status.CONVERGED, 0.0, 0),
+        Load.of_force(p_stop * area),
+    )
     assert f.displacement == pytest.approx(p.displacement[-1], abs=1e-9)
 
 
 def test_bad_inputs_are_rejected_before_solving(model6):
-    with pytest.raises(biplan.ConfigError, match="control.stop"):
+    with pytest.raises(biplan.ConfigError, match=r"control.stop"):
         biplan.Control.force(float("nan"))
     with pytest.raises(biplan.ConfigError, match="initial_step"):
         biplan.ArcLength(initial_step=-1.0)

@@ -39,7 +39,11 @@ def test_mass_matrix_and_inertia_force(model6, loaded, rng):
     v = rng.normal(size=q.size)
     a = rng.normal(size=q.size)
     mu = model6.tube.surface_density
-    f = np.asarray(inertia_force(model6.layout, model6.params, jnp.asarray(q), jnp.asarray(v), jnp.asarray(a), mu))
+    f = np.asarray(
+        inertia_force(
+            model6.layout, model6.params, jnp.asarray(q), jnp.asarray(v), jnp.asarray(a), mu
+        )
+    )
 
     # Lagrange: d/dt(M v) − ½ ∂(vᵀMv)/∂q with d/dt M = ∂M/∂q·v, by central differences
     def mass(qq: np.ndarray) -> np.ndarray:
@@ -48,10 +52,7 @@ def test_mass_matrix_and_inertia_force(model6, loaded, rng):
     h = 1e-6
     dm = (mass(q + h * v) - mass(q - h * v)) / (2 * h)
     grad_t = np.array(
-        [
-            (v @ mass(q + h * e) @ v - v @ mass(q - h * e) @ v) / (4 * h)
-            for e in np.eye(q.size)
-        ]
+        [(v @ mass(q + h * e) @ v - v @ mass(q - h * e) @ v) / (4 * h) for e in np.eye(q.size)]
     )
     expected = m @ a + dm @ v - grad_t
     assert np.allclose(f, expected, rtol=1e-5, atol=1e-9 * np.abs(expected).max())
@@ -132,9 +133,7 @@ def test_snap_after_loss_of_stability_settles_in_phase_two(model6, loaded):
 def test_bad_dynamics_inputs(model6):
     with pytest.raises(biplan.ConfigError, match="spectral_radius"):
         biplan.GeneralizedAlpha(spectral_radius=1.5)
-    with pytest.raises(biplan.ConfigError, match="load.times"):
+    with pytest.raises(biplan.ConfigError, match=r"load.times"):
         biplan.LoadHistory(ControlKind.FORCE, (0.0, 0.0), (0.0, 1.0))
     with pytest.raises(biplan.ConfigError, match="q0"):
         biplan.integrate(model6, None, np.full(model6.n_coordinates, 0.3), t_end=0.1)
-
-

@@ -263,10 +263,15 @@ def demo(
     quiet: Annotated[
         bool, typer.Option("--quiet", "-q", help="No progress bar and no table.")
     ] = False,
+    animate: Annotated[
+        bool, typer.Option("--animate/--no-animate", help="Write the ramp animation (GIF).")
+    ] = True,
 ) -> None:
-    """Stretch a tube to U = 9 mm under displacement control; write plots and a CSV.
+    """Stretch a tube to U = 9 mm under displacement control, and load it with the paper's
+    force ramp (0.8 N/s for 2 s); write plots, data and the ramp animation.
 
-    Writes force_displacement.png, development.png, cylinder.png and demo.csv into --out.
+    Writes force_displacement.png, development.png, cylinder.png, demo.csv, ramp.nc/csv,
+    path.nc/csv, response.png and ramp.gif into --out.
     """
     from rich.progress import (
         BarColumn,
@@ -314,6 +319,16 @@ def demo(
         files = _figures(model, ref, path, snapshots(path), out)
     except OSError as err:
         raise typer.BadParameter(f"cannot write into {out}: {err}", param_hint="--out") from None
+    from biplan.cli._demo_response import run_response
+
+    with (
+        console.status("Force ramp (dynamic) and equilibrium path…")
+        if interactive
+        else (contextlib.nullcontext())
+    ):
+        lines, more = run_response(model, out, animate=animate)
+    for line in lines:
+        console.print(escape(line), soft_wrap=True)
     if not quiet:
-        for f in [*files, out / "demo.csv"]:
+        for f in [*files, out / "demo.csv", *more]:
             console.print(f"wrote {escape(str(f))}")

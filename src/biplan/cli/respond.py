@@ -23,10 +23,13 @@ from __future__ import annotations
 import enum
 import sys
 from pathlib import Path
-from typing import Annotated
+from typing import TYPE_CHECKING, Annotated
 
 import typer
 from rich.console import Console
+
+if TYPE_CHECKING:
+    from biplan.solvers import Trajectory
 
 __all__ = ["Method", "respond"]
 
@@ -83,6 +86,7 @@ def respond(
     model = biplan.Model(tube)
     kind = control.value
     scale = 1e-3 if kind == "pressure" else 1.0  # kPa → MPa
+    result: biplan.Path | biplan.Trajectory
     with console.status(f"[bold]{tube.name}[/]: {'integrating' if dynamic else 'tracing'}…"):
         if dynamic:
             result = _dynamic(model, kind, scale, rate, duration, hold, time_step, damping_ratio)
@@ -118,7 +122,7 @@ def _dynamic(
     hold: float,
     time_step: float,
     damping_ratio: float,
-) -> object:
+) -> Trajectory:
     import biplan
     from biplan.analysis.modes import natural_modes, rayleigh_for_damping_ratio
     from biplan.solvers import BackwardEuler, ControlKind

@@ -136,9 +136,7 @@ def step(
     _, j_v = jax.jvp(pts, (q,), (v_new,))
     dissipated = alpha_r * jnp.sum(quadrature_weights(layout, p, mu_s)[:, None] * j_dq * j_v)
     balance = kinetic + energy(layout, p, q) - work + dissipated  # level at n+1 minus W, D
-    strain = energy(layout, p, q)
-    strain_n = energy(layout, p, q_n)
-    created = balance - (kin_n + strain_n)
+    created = balance - (kin_n + energy(layout, p, q_n))
     # energy moved through the step: the check is relative to it (discretisation error of a
     # violent snap) with ``energy_tol`` as the absolute floor (quasi-static tunnelling)
     moved = jnp.abs(work) + jnp.abs(dissipated) + jnp.abs(kinetic - kin_n)
@@ -170,11 +168,11 @@ def chunk(
         out = step(layout, p, s, t, t - t_prev, ctl, times, values, settings)
         ok = alive & out.converged & jnp.all(jnp.isfinite(out.state.z))
         s_new = jax.tree_util.tree_map(lambda a, b: jnp.where(ok, a, b), out.state, s)
-        outs = (s_new, ok, out.iterations, out.kinetic, out.dissipated)
+        outs: tuple = (s_new, ok, out.iterations, out.kinetic, out.dissipated)
         return (s_new, jnp.where(ok, t, t_prev), ok), outs
 
-    _, outs = jax.lax.scan(body, (s0, t0, jnp.asarray(True)), t_next)
-    return outs
+    scanned: tuple = jax.lax.scan(body, (s0, t0, jnp.asarray(True)), t_next)[1]
+    return scanned  # type: ignore[return-value]
 
 
 @functools.lru_cache(maxsize=32)

@@ -140,7 +140,8 @@ def path_loop(
     ``settings = [natural, ds0, ds_min, ds_max, grow, max_steps, atol, max_iterations, w_Λ]``;
     natural = 1 steps Λ by ds (load stepping), 0 uses pseudo-arclength steps ds.
     """
-    natural, ds0, ds_min, ds_max, grow = settings[0] > 0.5, *settings[1:5]
+    natural = settings[0] > 0.5
+    ds0, ds_min, ds_max, grow = settings[1], settings[2], settings[3], settings[4]
     max_steps, atol, max_it, w_lam = settings[5], settings[6], settings[7], settings[8]
     n = z0.shape[0]
     weights = _weights(layout, n)

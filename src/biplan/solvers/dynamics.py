@@ -168,7 +168,7 @@ class LoadHistory:
 
     def value(self, t: np.ndarray | float) -> np.ndarray:
         """Λ(t)."""
-        return np.interp(t, self.times, self.values)
+        return np.asarray(np.interp(t, self.times, self.values))
 
     def padded(self) -> tuple[np.ndarray, np.ndarray]:
         t = np.asarray(self.times, dtype=float)
@@ -360,7 +360,7 @@ def integrate(
         control=control,
         scheme=scheme.describe(),
         time=t_all[keep],
-        **{k: np.asarray(v)[keep] for k, v in common.items()},
+        **{k: np.asarray(v)[keep] for k, v in common.items()},  # type: ignore[arg-type]
         kinetic_energy=kinetic[keep],
         external_work=work[keep],
         dissipated_energy=dissipated[keep],

@@ -209,12 +209,8 @@ class _Labelled:
                 dims = (dim,)
             if v.dtype == bool:
                 v = v.astype(np.int8)
-            attrs = {
-                "units": UNITS.get(
-                    name, self.control.kind.unit if name == "load_parameter" else "1"
-                )
-            }
-            data[name] = (dims, v, attrs)
+            unit = UNITS.get(name, self.control.kind.unit if name == "load_parameter" else "1")
+            data[name] = (dims, v, {"units": unit})
         n = len(next(iter(self._variables().values())))
         coords: dict[str, Any] = {
             "fold": fold_names(self.model),
@@ -223,7 +219,7 @@ class _Labelled:
         }
         if dim == "step":
             coords["step"] = np.arange(n)
-        attrs = {
+        attrs: dict[str, Any] = {
             "kind": "path" if dim == "step" else "trajectory",
             "control": self.control.kind.value,
             "control_unit": self.control.kind.unit,
