@@ -79,10 +79,8 @@ def study(name: str, tube: biplan.Tube) -> dict:
     first = int(unstable[0]) if unstable.size else len(lam)
     k = int(np.argmax(path.force[:first])) if first else 0
     changes = int(np.sum(np.diff((lam < 0).astype(int)) != 0))
-    probe = biplan.solve_equilibrium(model, None, ref, biplan.Load.of_force(0.8))
-    alpha = rayleigh_for_damping_ratio(natural_modes(model, probe), 0.05)
     ramp = biplan.integrate(
-        model, biplan.GeneralizedAlpha(time_step=0.02, rayleigh=alpha), ref, t_end=2.0
+        model, biplan.GeneralizedAlpha(time_step=0.02, rayleigh=RAYLEIGH), ref, t_end=2.0
     )
     l0 = model.tube.initial_length
     n = model.layout.n_modules
