@@ -1,6 +1,6 @@
 """Fidelity study of the semi-bistable design: every selectable reading against the paper.
 
-Run:  .venv/bin/python benchmarks/fidelity_semi_bistable.py [--quick]
+Run:  .venv/bin/python benchmarks/fidelity_semi_bistable.py [--quick | --only INDEX | --sensitivity]
 
 For each reading (ModelOptions variant) of the SI calibration-table design it computes:
 
@@ -109,6 +109,11 @@ def main() -> None:
     quick = "--quick" in sys.argv
     rows = []
     readings = READINGS[:2] if quick else READINGS
+    if "--sensitivity" in sys.argv:
+        readings, quick = [], False
+    if "--only" in sys.argv:  # one reading per process (every layout compiles its kernels)
+        readings = [READINGS[int(sys.argv[sys.argv.index("--only") + 1])]]
+        quick = True
     for name, changes in readings:
         if changes.get("__branch_lengths"):
             # the same kernels (layout) as the defaults: only the law numbers change

@@ -53,7 +53,7 @@ class _Stepper:
     atol: float = 1e-9
     max_iterations: int = 10
     locate_events: bool = True
-    event_tolerance: float = 1e-7
+    event_tolerance: float = 1e-3
 
     def __post_init__(self) -> None:
         name = type(self).__name__
