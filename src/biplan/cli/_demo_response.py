@@ -99,7 +99,7 @@ def _figure(path: object, ramp: object, file: Path) -> Path:
             label="force ramp 0.8 N/s (dynamic)",
         )
         ax.set_xlabel(r"load-point displacement $z_p$ [mm]")
-        ax.legend(fontsize=6, frameon=False, loc="lower right")
+        ax.legend(fontsize=6, frameon=False, loc="lower left", bbox_to_anchor=(0.0, 1.0))
         fig.savefig(file, dpi=300)
     finally:
         plt.close(fig)

@@ -156,7 +156,7 @@ def force_displacement(
             ms=4,
             mew=1.0,
             ls="none",
-            label="limit point",
+            label="limit point / bifurcation",
             zorder=4,
         )
     ax.set_xlabel(r"$U/l_0$ [–]" if normalise is not None else r"$U$ [mm]")
