@@ -39,8 +39,9 @@ from biplan.solvers.results import Event, Path, PathStats, PathStatus
 
 __all__ = ["ArcLength", "LoadStepping", "trace_path"]
 
-#: Buffers are allocated in multiples of this (one compiled shape per multiple).
-BUFFER_QUANTUM = 256
+#: Buffers are allocated in multiples of this (one compiled shape per multiple): every path
+#: of up to 2047 steps shares one compiled loop.
+BUFFER_QUANTUM = 2048
 
 
 @dataclass(frozen=True)
