@@ -36,7 +36,7 @@ from biplan.solvers import _dynkernel as dk
 from biplan.solvers.control import Control, ControlKind
 from biplan.solvers.newton import Solution, relaxed_reference
 from biplan.solvers.observe import observe_batch
-from biplan.solvers.results import Trajectory, TrajectoryStats, TrajectoryStatus
+from biplan.solvers.results import Trajectory, TrajectoryStats, TrajectoryStatus, observables
 
 __all__ = ["BackwardEuler", "GeneralizedAlpha", "LoadHistory", "integrate", "mass_matrix_at"]
 
@@ -218,7 +218,6 @@ def _initial_state(model: Model, z0: np.ndarray, v0: np.ndarray, load: Load) -> 
         jnp.asarray(qdd),
         jnp.asarray(force),
         jnp.asarray(model.load_displacement(q0)),
-        jnp.asarray(0.0),
     )
 
 
@@ -352,9 +351,7 @@ def integrate(
         largest_step=float(dt.max()) if dt.size else float("nan"),
         max_constraint_residual=float(np.max(obs.constraint_residual)),
     )
-    from biplan.solvers.results import _common
-
-    common = _common(model, obs, lam)
+    common = observables(model, obs, lam)
     return Trajectory(
         model=model,
         control=control,

@@ -146,7 +146,7 @@ def fold_names(model: Model) -> list[str]:
     return names
 
 
-def _common(model: Model, obs: Observation, control_value: np.ndarray) -> dict[str, np.ndarray]:
+def observables(model: Model, obs: Observation, control_value: np.ndarray) -> dict[str, np.ndarray]:
     lam = np.asarray(obs.min_eigenvalue, dtype=float)
     n_h = model.layout.n_modules
     fe = np.asarray(obs.fold_energy)
@@ -299,7 +299,7 @@ class Path(_Labelled):
         stats: PathStats,
         direction: np.ndarray,
     ) -> Path:
-        common = _common(model, observation, load_parameter)
+        common = observables(model, observation, load_parameter)
         return cls(
             model=model,
             control=control,
