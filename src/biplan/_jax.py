@@ -4,6 +4,14 @@ Importing this module enables ``jax_enable_x64`` (all energies are float64) and 
 persistent compilation cache at ``$BIPLAN_JAX_CACHE`` (default ``~/.cache/biplan/jax``) so
 that kernels compiled in one process are reused by the next (cold-start time is user time).
 Set ``BIPLAN_JAX_CACHE=off`` to disable the cache.
+
+It also adds ``--xla_cpu_multi_thread_eigen=false`` to ``XLA_FLAGS`` (unless the user set that
+flag): with JAX 0.10 on CPU, large ``vmap``-ped kernels with nested ``while`` loops (the batched
+state relaxation, the stability map) intermittently wedge XLA's multi-threaded Eigen pool —
+the process waits forever in ``block_until_ready`` with no CPU use (the same hang is reported
+upstream for vmapped graphs, where this flag removes it). Single-threaded Eigen costs little
+here (the kernels are many small matrices, parallelised by batching); set
+``BIPLAN_EIGEN_THREADS=on`` to keep the multi-threaded pool.
 """
 
 from __future__ import annotations
@@ -11,7 +19,12 @@ from __future__ import annotations
 import os
 from pathlib import Path
 
-import jax
+if os.environ.get("BIPLAN_EIGEN_THREADS", "").lower() not in {"on", "1", "true"}:
+    _flags = os.environ.get("XLA_FLAGS", "")
+    if "xla_cpu_multi_thread_eigen" not in _flags:
+        os.environ["XLA_FLAGS"] = (_flags + " --xla_cpu_multi_thread_eigen=false").strip()
+
+import jax  # noqa: E402
 
 jax.config.update("jax_enable_x64", True)
 

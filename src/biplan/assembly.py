@@ -39,6 +39,7 @@ __all__ = [
     "ModelParams",
     "StateData",
     "TubeLayout",
+    "fold_openings",
     "guide_values",
     "kernels",
     "kkt_jacobian",
@@ -152,6 +153,21 @@ def phase_fractions(layout: TubeLayout, p: ModelParams, q: Array) -> Array:
     num = jax.ops.segment_sum(per * length[:, None], t.field_conn, layout.n_connectors)
     den = jax.ops.segment_sum(length, t.field_conn, layout.n_connectors)
     return jnp.concatenate([hel, num / den[:, None]], axis=0)
+
+
+def fold_openings(layout: TubeLayout, p: ModelParams, q: Array) -> Array:
+    """Length-mean elongation w̄ [mm] of every fold, (N + Nc,), helical folds then circular
+    (length-weighted over a connector's fields). Used to seed fold states (MODEL §15)."""
+    kin = _kin(layout, p, q)
+    hel = 0.5 * (kin.helical[:, 0] + kin.helical[:, 1])
+    if layout.n_connectors == 0:
+        return hel
+    t = chain.tables(layout)
+    length = kin.field_length
+    mean = 0.5 * (kin.field_start + kin.field_end) * length
+    num = jax.ops.segment_sum(mean, t.field_conn, layout.n_connectors)
+    den = jax.ops.segment_sum(length, t.field_conn, layout.n_connectors)
+    return jnp.concatenate([hel, num / den])
 
 
 def energy(layout: TubeLayout, p: ModelParams, q: Array) -> Array:

@@ -11,6 +11,7 @@ K3              ``mirror``                                    reflection z → l
 K4              ``first_module``                              standard (S) module at the base
 C1              ``contact``                                   one condition per field endpoint
 R1              ``chain_offset``                              exact seam gap γ
+R3              ``chain_attachment``                          SPC: lower element; TPC: translation
 R2              ``endpoint``                                  free-end edge, least squares
 W1              ``load_point``                                centroid of the free-end edge
 S1              ``weak_contacts_active``                      False (conservative)
@@ -27,6 +28,7 @@ from biplan._errors import ConfigError, check_range
 from biplan.laws.trilinear import TransitionReading
 
 __all__ = [
+    "ChainAttachment",
     "ChainOffset",
     "ContactForm",
     "EndpointDefinition",
@@ -84,6 +86,24 @@ class ChainOffset(enum.Enum):
     PAPER = "paper"
 
 
+class ChainAttachment(enum.Enum):
+    """How the frame of a module follows the module below it (MODEL §16, reading R3).
+
+    ``ELEMENT``: the paper's chain — across an SPC the module above rides on the lower
+    module's full top element (H^SPC = its rotation), across a TPC it is only translated
+    (H^TPC = I). Only S-module helical openings then rotate the downstream tube.
+    ``EDGE_FIT``: across every connector the module above rides on the least-squares rigid fit
+    of the lower module's whole top edge (length-weighted, the same fit that defines the
+    endpoint slope θ). Identical to ``ELEMENT`` across an SPC (a full edge is one rigid
+    element); across a TPC the split edge's mean rotation is passed on, so every open helical
+    fold rotates the downstream tube. Only the reconstruction (endpoint, load height) changes:
+    fold elongations, energy and stability at zero load are the same.
+    """
+
+    ELEMENT = "element"
+    EDGE_FIT = "edge_fit"
+
+
 class EndpointDefinition(enum.Enum):
     """What "the endpoint" is (MODEL CHOICE R2).
 
@@ -114,6 +134,7 @@ _ENUMS: dict[str, type[enum.Enum]] = {
     "first_module": ModuleKind,
     "contact": ContactForm,
     "chain_offset": ChainOffset,
+    "chain_attachment": ChainAttachment,
     "endpoint": EndpointDefinition,
     "load_point": LoadPoint,
 }
@@ -125,7 +146,8 @@ class ModelOptions:
 
     Parameters
     ----------
-    transition_reading, mirror, first_module, contact, chain_offset, endpoint, load_point
+    transition_reading, mirror, first_module, contact, chain_offset, chain_attachment,
+        endpoint, load_point
         Enum members or their string values.
     weak_contacts_active : bool
         Treat contacts with λ_∂ ≈ 0 and w ≈ 0 as active in the stability test (S1).
@@ -140,6 +162,7 @@ class ModelOptions:
     first_module: ModuleKind = ModuleKind.STANDARD
     contact: ContactForm = ContactForm.PER_ENDPOINT
     chain_offset: ChainOffset = ChainOffset.EXACT
+    chain_attachment: ChainAttachment = ChainAttachment.ELEMENT
     endpoint: EndpointDefinition = EndpointDefinition.EDGE
     load_point: LoadPoint = LoadPoint.CENTROID
     weak_contacts_active: bool = False

@@ -14,7 +14,7 @@ from rich.console import Console
 from rich.markup import escape
 
 from biplan._errors import BiplanError
-from biplan.cli import calibrate, demo, plot, respond, validate
+from biplan.cli import calibrate, demo, maps, plot, reproduce, respond, states, validate
 
 __all__ = ["EXIT_BIPLAN_ERROR", "app", "main"]
 
@@ -33,6 +33,10 @@ app.add_typer(calibrate.app, name="calibrate")
 app.command("validate")(validate.validate)
 app.command("plot")(plot.plot)
 app.command("respond")(respond.respond)
+app.command("states")(states.states)
+app.command("path")(states.path)
+app.add_typer(maps.app, name="map")
+app.command("reproduce")(reproduce.reproduce)
 
 
 def _show_version(value: bool) -> None:

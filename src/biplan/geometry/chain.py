@@ -37,7 +37,7 @@ from biplan.geometry.module import (
     rotation,
 )
 from biplan.geometry.tube import TubeLayout
-from biplan.options import ChainOffset, EndpointDefinition, LoadPoint
+from biplan.options import ChainAttachment, ChainOffset, EndpointDefinition, LoadPoint
 
 __all__ = [
     "Endpoint",
@@ -215,15 +215,39 @@ def kinematics(layout: TubeLayout, geom: GeometryParams, q: Array) -> Kinematics
     else:
         delta = w_pt = f_start = f_end = f_len = jnp.zeros((0,))
 
-    frames = _frames(layout, geom, qm, gam, ref, delta)
+    z_lo_seam = z_lo[t.seam_pt] if layout.n_connectors else jnp.zeros((0,))
+    frames = _frames(layout, geom, qm, gam, ref, delta, local, z_lo_seam)
     return Kinematics(local, ref, g, w_h, a, w_pt, f_start, f_end, f_len, frames)
 
 
+def _edge_fit(local: Array, ref: Array, segments: tuple[tuple[int, int, int], ...]) -> Array:
+    """Least-squares rigid motion (homogeneous, module frame) of a module's edge: reference
+    segment ends → deformed ones, each end weighted by half its segment's reference length."""
+    idx = np.array([[a, b] for _, a, b in segments])
+    p, q = ref[idx], local[idx]  # (k, 2 ends, 2)
+    w = jnp.linalg.norm(p[:, 1] - p[:, 0], axis=1)[:, None] * jnp.ones((1, 2))
+    p, q, w = p.reshape(-1, 2), q.reshape(-1, 2), w.reshape(-1)
+    pc = (w[:, None] * p).sum(0) / w.sum()
+    qc = (w[:, None] * q).sum(0) / w.sum()
+    h = ((p - pc) * w[:, None]).T @ (q - qc)
+    angle = jnp.arctan2(h[0, 1] - h[1, 0], h[0, 0] + h[1, 1])
+    rot = rotation(angle)
+    return _hom(rot, qc - rot @ pc)
+
+
 def _frames(
-    layout: TubeLayout, geom: GeometryParams, qm: Array, gam: Array, ref: Array, delta: Array
+    layout: TubeLayout,
+    geom: GeometryParams,
+    qm: Array,
+    gam: Array,
+    ref: Array,
+    delta: Array,
+    local: Array,
+    z_lo_seam: Array,
 ) -> Array:
     out: list[Array | None] = [None] * layout.n_modules
     paper = layout.options.chain_offset is ChainOffset.PAPER
+    fit = layout.options.chain_attachment is ChainAttachment.EDGE_FIT
     if not layout.has_base_connector:
         out[0] = jnp.eye(3)
     for c, spec in enumerate(layout.connectors):
@@ -244,6 +268,12 @@ def _frames(
                 pivot = ref[lo, PIVOT[e]] + jnp.stack([qm[lo, 0], 0.0])
                 rot = rotation(theta)
                 out[up] = t_lo @ _trans(dp, dp * jnp.tan(theta)) @ _hom(rot, pivot - rot @ pivot)
+        elif fit and e is None:
+            # R3 EDGE_FIT: ride on the fitted split edge; the seam gap stays γ measured from
+            # the fitted edge line (which is at z = l in the fitted frame).
+            assert spec.lower_edge is not None
+            attach = t_lo @ _edge_fit(local[lo], ref[lo], spec.lower_edge.segments)
+            out[up] = attach @ _trans(delta[c] - (z_lo_seam[c] - geom.pitch))
         else:
             attach = t_lo if e is None else t_lo @ _element_hom(qm[lo], ref[lo], e)
             out[up] = attach @ _trans(delta[c])

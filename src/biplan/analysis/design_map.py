@@ -1,0 +1,276 @@
+"""Force-controlled design map (paper Fig. 3 A.1; SI "Semi-Bistable MFT Design Maps").
+
+Every grid point is a tube loaded by the monotonic end-force ramp F(t) = Ḟ t, 0 ≤ t ≤ T
+(Ḟ = 0.8 N/s, T = 2 s, F_f = 1.6 N by default) from the relaxed reference. The map records
+the terminal endpoint displacements u_z/l₀ and u_r/l₀ (l₀ = N l), whether and when stability
+was lost, and the solve status.
+
+Reading (documented in docs/maps.md): the ramp is followed **quasi-statically** — Newton load
+stepping at the ramp's force levels F_k = Ḟ t_k, each step warm-started from the previous
+equilibrium, batched over the grid with ``jax.vmap``. The paper's ramp is dynamic, but the
+tube's inertia is tiny (μ = 3.6e-10 t/mm², lowest periods ~ms against a 2 s ramp), so between
+snaps the dynamic response is the quasi-static one; a batched generalized-α run would need
+~200 adaptive steps per point in lock-step (step halving is per point, so vmap is
+inefficient) and costs ~10× more. Where stability is lost the two readings can differ in the
+branch reached after the snap; such points are flagged (``stability_lost``) and the time is
+recorded (``time_lost``). Loss of stability at step k: λ_min(H_r) ≤ 0 at the equilibrium, a
+failed step (no nearby equilibrium: a limit point was passed) or a snap (the load-point
+displacement increment of the step exceeds ``snap_factor`` × the mean increment of the
+preceding steps).
+
+:func:`response_point` is the scalar (one design, one Newton solve per step) reference of the
+batched kernel; the test-suite checks that both agree.
+"""
+
+from __future__ import annotations
+
+import functools
+from collections.abc import Mapping, Sequence
+from dataclasses import dataclass
+from typing import Any
+
+import numpy as np
+
+from biplan._errors import ConfigError, check_range
+from biplan._jax import jax, jnp
+from biplan.assembly import Load, Model, TubeLayout
+from biplan.geometry import Tube
+from biplan.solvers.newton import Newton, Status, newton_loop, solve_equilibrium
+from biplan.solvers.observe import observe, observe_batch
+
+__all__ = ["ForceRamp", "ResponseEvaluator", "response_point", "stack_params"]
+
+Array = Any
+
+
+@dataclass(frozen=True)
+class ForceRamp:
+    """The force ramp of the design map and how it is followed.
+
+    Parameters
+    ----------
+    rate : float
+        Ḟ [N/s] (paper 0.8), finite and ≠ 0.
+    duration : float
+        T [s] (paper 2), > 0; terminal force F_f = Ḟ T [N].
+    n_steps : int
+        Load steps over [0, T] (≥ 2); the step times are t_k = k T / n_steps.
+    snap_factor : float
+        A step whose load-point displacement increment exceeds this multiple of the mean
+        increment of the steps before is a snap (> 1).
+    atol : float
+        Newton tolerance on ‖r‖∞ (N, mm).
+    max_steps : int
+        Newton iterations per load step.
+    max_backtracks : int
+        Line-search halvings per Newton step (the batched loop runs in lock-step until every
+        design of the batch has finished, so a failing design must fail fast).
+    """
+
+    rate: float = 0.8
+    duration: float = 2.0
+    n_steps: int = 16
+    snap_factor: float = 8.0
+    atol: float = 1e-9
+    max_steps: int = 60
+    max_backtracks: int = 12
+
+    def __post_init__(self) -> None:
+        r = check_range("ramp.rate", self.rate)
+        if r == 0:
+            raise ConfigError("ramp.rate", r, "a finite non-zero rate [N/s]")
+        check_range("ramp.duration", self.duration, low=0.0)
+        check_range("ramp.snap_factor", self.snap_factor, low=1.0)
+        n = self.n_steps
+        if isinstance(n, bool) or not isinstance(n, int) or not 2 <= n <= 512:
+            raise ConfigError("ramp.n_steps", n, "an integer in [2, 512]")
+        self.newton()
+
+    @property
+    def times(self) -> np.ndarray:
+        """Step times t_k [s], k = 0 … n_steps."""
+        return np.linspace(0.0, self.duration, self.n_steps + 1)
+
+    @property
+    def forces(self) -> np.ndarray:
+        """Step forces F_k = Ḟ t_k [N]."""
+        return self.rate * self.times
+
+    def newton(self) -> Newton:
+        return Newton(atol=self.atol, max_steps=self.max_steps, max_backtracks=self.max_backtracks)
+
+
+def _path(layout: TubeLayout, p: Any, z0: Array, forces: Array, settings: Array) -> tuple:
+    """Load stepping through ``forces`` from z0 (pure; vmapped over designs)."""
+
+    def body(carry: tuple, f: Array) -> tuple:
+        z, alive = carry
+        load = Load(f, jnp.asarray(0.0), jnp.asarray(0.0))
+        out = newton_loop(layout, p, z, load, settings)
+        ok = alive & (out.status == Status.CONVERGED.value) & jnp.all(jnp.isfinite(out.z))
+        ob = observe(layout, p, out.z, load, layout.options.weak_contacts_active)
+        z_next = jnp.where(ok, out.z, z)
+        first_bad = jnp.where(alive & ~ok, out.status, -1)
+        return (z_next, ok), (ok, first_bad, ob.u_z, ob.u_r, ob.displacement, ob.min_eigenvalue)
+
+    carry, outs = jax.lax.scan(body, (z0, jnp.asarray(True)), forces)  # type: ignore[var-annotated]
+    return carry[0], outs
+
+
+@functools.lru_cache(maxsize=16)
+def _kernel(layout: TubeLayout) -> Any:
+    fn = functools.partial(_path, layout)
+    return jax.jit(jax.vmap(fn, in_axes=(0, None, None, None)))
+
+
+def stack_params(models: Sequence[Model], batch: int) -> Any:
+    """The ModelParams of ``models`` stacked along a leading axis, padded to ``batch`` by
+    repeating the last one."""
+    ps = [m.params for m in models] + [models[-1].params] * (batch - len(models))
+    return jax.tree_util.tree_map(lambda *a: jnp.stack([jnp.asarray(x) for x in a]), *ps)
+
+
+def _summarise(
+    ramp: ForceRamp,
+    ok: np.ndarray,
+    first_bad: np.ndarray,
+    u_z: np.ndarray,
+    u_r: np.ndarray,
+    zp: np.ndarray,
+    lam: np.ndarray,
+    l0: np.ndarray,
+) -> dict[str, np.ndarray]:
+    """Per point (rows) from per-step (columns) records of the ramp."""
+    n = ok.shape[0]
+    times = ramp.times
+    status = np.zeros(n, dtype=np.int64)
+    lost_step = np.full(n, -1)
+    for i in range(n):
+        bad = np.flatnonzero(~ok[i])
+        if bad.size:
+            code = int(first_bad[i, bad[0]])
+            status[i] = 2 if code == Status.NONFINITE.value else 1
+        dz = np.abs(np.diff(zp[i]))
+        snap = np.zeros(ok.shape[1], dtype=bool)
+        for k in range(2, ok.shape[1]):
+            mean = float(np.mean(dz[: k - 1]))
+            snap[k] = ok[i, k] and dz[k - 1] > ramp.snap_factor * max(mean, 1e-12)
+        unstable = ok[i] & (lam[i] <= 0.0)
+        flagged = np.flatnonzero(unstable | snap | ~ok[i])
+        if flagged.size:
+            lost_step[i] = int(flagged[0])
+    good = status == 0
+    nan = np.nan
+    return {
+        "u_z": np.where(good, u_z[:, -1] / l0, nan),
+        "u_r": np.where(good, u_r[:, -1] / l0, nan),
+        "stability_lost": np.where(good, (lost_step >= 0).astype(float), nan),
+        "time_lost": np.where(lost_step >= 0, times[np.maximum(lost_step, 0)], nan),
+        "min_eigenvalue": np.where(good, np.min(np.where(ok, lam, np.inf), axis=1), nan),
+        "status": status,
+    }
+
+
+@dataclass(frozen=True)
+class ResponseEvaluator:
+    """Terminal response of the force ramp at every grid point (see module docstring)."""
+
+    ramp: ForceRamp = ForceRamp()
+    name: str = "force_ramp_response"
+    load_axes: tuple[str, ...] = ()
+
+    def variables(self, design: Tube) -> dict[str, tuple[tuple[str, ...], str, str]]:
+        return {
+            "u_z": ((), "1", "terminal axial endpoint displacement u_z / l0"),
+            "u_r": ((), "1", "terminal radial endpoint displacement u_r / l0"),
+            "stability_lost": ((), "1", "1 if stability was lost during the ramp, else 0"),
+            "time_lost": ((), "s", "first ramp time at which stability was lost"),
+            "min_eigenvalue": ((), "N*mm", "smallest reduced-Hessian eigenvalue on the ramp"),
+            "status": ((), "1", "0 ok; see flag_meanings"),
+        }
+
+    def dim_sizes(self, design: Tube) -> dict[str, int]:
+        return {}
+
+    def describe(self) -> dict[str, Any]:
+        r = self.ramp
+        return {
+            "solver": "quasi-static Newton load stepping on the force ramp (vmap)",
+            "rate_N_per_s": r.rate,
+            "duration_s": r.duration,
+            "n_steps": r.n_steps,
+            "snap_factor": r.snap_factor,
+            "atol": r.atol,
+            "max_steps": r.max_steps,
+            "max_backtracks": r.max_backtracks,
+        }
+
+    def finish(self, ds: Any) -> Any:
+        return ds
+
+    def evaluate(
+        self, tubes: Sequence[Tube], loads: Sequence[Mapping[str, float]], batch: int
+    ) -> dict[str, np.ndarray]:
+        """Batched ramp of ``tubes``: one compiled call per layout, padded to ``batch``."""
+        n = len(tubes)
+        out: dict[str, np.ndarray] | None = None
+        groups: dict[Any, list[int]] = {}
+        for i, t in enumerate(tubes):
+            groups.setdefault(t.layout, []).append(i)
+        forces = jnp.asarray(self.ramp.forces)
+        settings = self.ramp.newton().settings()
+        for layout, which in groups.items():
+            models = [Model(tubes[i]) for i in which]
+            z0 = jnp.asarray(models[0].pack(models[0].zeros()))
+            for lo in range(0, len(which), batch):
+                part = which[lo : lo + batch]
+                params = stack_params(models[lo : lo + batch], batch)
+                _, rec = _kernel(layout)(params, z0, forces, settings)
+                ok, bad, uz, ur, zp, lam = (np.asarray(r)[: len(part)] for r in rec)
+                l0 = np.asarray([tubes[i].initial_length for i in part])
+                res = _summarise(self.ramp, ok, bad, uz, ur, zp, lam, l0)
+                if out is None:
+                    out = {k: np.empty((n, *v.shape[1:]), v.dtype) for k, v in res.items()}
+                for k, v in res.items():
+                    out[k][part] = v
+        assert out is not None
+        return out
+
+
+def response_point(tube: Tube, ramp: ForceRamp | None = None) -> dict[str, float]:
+    """Scalar reference of :class:`ResponseEvaluator` for one design: one Newton solve per
+    load step (``solve_equilibrium``), observed with ``observe_batch``.
+
+    Returns
+    -------
+    dict
+        The same keys as the map's variables, as Python floats (``status`` an int).
+    """
+    ramp = ramp or ForceRamp()
+    model = Model(tube)
+    solver = ramp.newton()
+    z = model.pack(model.zeros())
+    ok, first_bad, zs = [], [], []
+    alive = True
+    for f in ramp.forces:
+        sol = solve_equilibrium(model, solver, z, Load.of_force(float(f)))
+        good = alive and sol.converged and bool(np.all(np.isfinite(sol.z)))
+        first_bad.append(sol.status.value if alive and not good else -1)
+        ok.append(good)
+        zs.append(sol.z if good else z)
+        if good:
+            z = sol.z
+        alive = good
+    forces = ramp.forces
+    obs = observe_batch(model.layout, model.params, np.asarray(zs), Load(forces, 0.0 * forces, 0.0))
+    res = _summarise(
+        ramp,
+        np.asarray([ok]),
+        np.asarray([first_bad]),
+        obs.u_z[None],
+        obs.u_r[None],
+        obs.displacement[None],
+        obs.min_eigenvalue[None],
+        np.asarray([tube.initial_length]),
+    )
+    return {k: (int(v[0]) if k == "status" else float(v[0])) for k, v in res.items()}

@@ -1,0 +1,129 @@
+"""Running the chunks of a sweep on a Dask cluster or a process pool.
+
+A runner is ``runner(design, grid, evaluator, todo, batch)`` yielding ``(chunk, result)`` as
+chunks finish (any order); :func:`biplan.analysis.sweeps.sweep` streams each result to its
+sink. Workers receive only picklable descriptions (the frozen :class:`~biplan.Tube`, the grid,
+the evaluator) and run :func:`~biplan.analysis.sweeps.evaluate_chunk`; each worker compiles its
+kernels once per layout (module-level caches) and shares the persistent JAX compilation cache
+that importing biplan configures.
+
+* :func:`dask_runner` — a ``LocalCluster`` on 127.0.0.1 (processes, one thread each) by
+  default, or ``Client(address)`` of a user's scheduler; falls back to :func:`process_runner`
+  when ``dask.distributed`` is not importable.
+* :func:`process_runner` — ``concurrent.futures.ProcessPoolExecutor``.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable, Iterator
+from typing import Any
+
+import numpy as np
+
+from biplan._errors import ConfigError
+from biplan.analysis.sweeps import Evaluator, Grid, evaluate_chunk
+from biplan.geometry import Tube
+
+__all__ = ["Runner", "dask_runner", "process_runner"]
+
+Todo = list[tuple[int, np.ndarray]]
+Runner = Callable[[Tube, Grid, Evaluator, Todo, int], Iterator[tuple[int, dict[str, np.ndarray]]]]
+
+
+def _check_workers(n_workers: int) -> int:
+    if isinstance(n_workers, bool) or not isinstance(n_workers, int) or n_workers < 1:
+        raise ConfigError("workers", n_workers, "an integer ≥ 1")
+    return n_workers
+
+
+def _warm(design: Tube, grid: Grid, evaluator: Evaluator, batch: int) -> bool:
+    """Evaluate one point (compiles the worker's kernels; cheap once cached)."""
+    evaluate_chunk(design, grid, evaluator, np.arange(1), batch)
+    return True
+
+
+def process_runner(n_workers: int = 2) -> Runner:
+    """Run chunks in a ``ProcessPoolExecutor`` of ``n_workers`` processes (spawned)."""
+    _check_workers(n_workers)
+
+    def run(
+        design: Tube, grid: Grid, evaluator: Evaluator, todo: Todo, batch: int
+    ) -> Iterator[tuple[int, dict[str, np.ndarray]]]:
+        import multiprocessing as mp
+        from concurrent.futures import ProcessPoolExecutor, as_completed
+
+        if not todo:
+            return
+        with ProcessPoolExecutor(n_workers, mp_context=mp.get_context("spawn")) as pool:
+            futures = {
+                pool.submit(evaluate_chunk, design, grid, evaluator, idx, batch): cid
+                for cid, idx in todo
+            }
+            for fut in as_completed(futures):
+                yield futures[fut], fut.result()
+
+    return run
+
+
+def dask_runner(
+    address: str | None = None,
+    n_workers: int = 2,
+    *,
+    warm_up: bool = False,
+    on_ready: Callable[[], object] | None = None,
+) -> Runner:
+    """Run chunks on Dask: ``Client(address)`` if given, else a loopback ``LocalCluster``.
+
+    Parameters
+    ----------
+    address : str, optional
+        Scheduler address of a user's cluster (``tcp://host:8786``).
+    n_workers : int
+        Worker processes of the local cluster (one thread each), ≥ 1.
+    warm_up : bool
+        Compile every worker's kernels before the chunks are submitted (benchmarks).
+    on_ready : callable, optional
+        Called once the cluster is up (and warm), just before the chunks are submitted.
+    """
+    _check_workers(n_workers)
+    try:
+        from dask.distributed import Client, LocalCluster, as_completed
+    except ImportError:  # pragma: no cover - dask is a core dependency
+        if address is not None:
+            raise ConfigError("--scheduler", address, "usable only with dask installed") from None
+        return process_runner(n_workers)
+
+    def run(
+        design: Tube, grid: Grid, evaluator: Evaluator, todo: Todo, batch: int
+    ) -> Iterator[tuple[int, dict[str, np.ndarray]]]:
+        if not todo:
+            return
+        cluster: Any = None
+        if address is None:
+            cluster = LocalCluster(
+                n_workers=n_workers,
+                threads_per_worker=1,
+                processes=True,
+                host="127.0.0.1",
+                dashboard_address=None,
+            )
+            client = Client(cluster)
+        else:
+            client = Client(address)
+        try:
+            if warm_up:
+                client.run(_warm, design, grid, evaluator, batch)
+            if on_ready is not None:
+                on_ready()
+            futures = {
+                client.submit(evaluate_chunk, design, grid, evaluator, idx, batch, pure=False): cid
+                for cid, idx in todo
+            }
+            for fut in as_completed(list(futures)):
+                yield futures[fut], fut.result()
+        finally:
+            client.close()
+            if cluster is not None:
+                cluster.close()
+
+    return run

@@ -1,0 +1,193 @@
+"""``biplan states CONFIG --out DIR`` and ``biplan path CONFIG START TARGET``.
+
+``states`` enumerates every stable state from the 2ⁿ binary fold-state seeds and writes into
+DIR:
+
+* ``states.csv`` — one row per distinct stable equilibrium (``name,label,bits,energy,u_z,u_r,
+  theta,Theta,min_eigenvalue,n_open_helical,n_open_circular,seeds``; mm, rad, N·mm, N/mm);
+* ``seeds.csv`` — one row per seed: the bits it reached, stable/unstable/failed, the state;
+* ``states.nc`` — the catalogue as a labelled dataset (coordinates q of every state);
+* ``hierarchy.nc`` — slope branches, sub-branches, distributions (Fig. 4 C);
+* ``transitions.graphml`` — the Hamming-1 graph (with barriers when ``--barriers``);
+* ``transitions.png`` (pathways highlighted), ``endpoint_space.png``, ``distributions.png``.
+
+``path`` prints the pathway between two states (fewest fold switches, or least barrier with
+``--weight barrier``) and each step's barrier.
+"""
+
+from __future__ import annotations
+
+import csv
+import sys
+from pathlib import Path
+from typing import TYPE_CHECKING, Annotated, Any
+
+import typer
+from rich.console import Console
+
+if TYPE_CHECKING:
+    from biplan.analysis.catalogue import StateCatalogue
+
+__all__ = ["path", "states", "write_states"]
+
+#: The paper's pathways (SI transition section): p1 2A → 66, p2 2A → 1B, p3 → 00.
+PAPER_PATHWAYS = (("2A", "66"), ("2A", "1B"), ("66", "00"))
+
+
+def _progress_enumeration(model: Any, quiet: bool) -> StateCatalogue:
+    from rich.progress import BarColumn, MofNCompleteColumn, Progress, TimeRemainingColumn
+
+    from biplan.analysis.states import enumerate_states
+
+    with Progress(
+        "[bold]relaxing seeds",
+        BarColumn(),
+        MofNCompleteColumn(),
+        TimeRemainingColumn(),
+        disable=quiet or not sys.stderr.isatty(),
+        console=Console(stderr=True),
+    ) as bar:
+        task = bar.add_task("seeds", total=None)
+
+        def update(done: int, total: int) -> None:
+            bar.update(task, completed=done, total=total)
+
+        return enumerate_states(model, progress=update)
+
+
+def _pathways(graph: Any) -> tuple[list[list[str]], list[str]]:
+    from biplan.analysis.transitions import pathway
+
+    paths, names = [], []
+    for k, (a, b) in enumerate(PAPER_PATHWAYS):
+        if a in graph and b in graph:
+            try:
+                paths.append(pathway(graph, a, b))
+                names.append(f"p{k + 1}: {a}→{b}")
+            except Exception:  # noqa: BLE001 — disconnected: no pathway to draw
+                continue
+    return paths, names
+
+
+def write_states(catalogue: StateCatalogue, graph: Any, out: Path) -> list[Path]:
+    """Write the files of ``biplan states`` for a catalogue and its graph; returns the paths."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    from biplan.analysis.catalogue import CSV_COLUMNS
+    from biplan.analysis.hierarchy import hierarchy
+    from biplan.analysis.transitions import write_graphml
+    from biplan.io.config import dump_config
+    from biplan.plot.states import distributions, endpoint_space, transition_diagram
+
+    out.mkdir(parents=True, exist_ok=True)
+    files = [out / n for n in ("states.csv", "seeds.csv", "states.nc", "hierarchy.nc")]
+    with open(files[0], "w", newline="") as fh:
+        writer = csv.DictWriter(fh, fieldnames=list(CSV_COLUMNS))
+        writer.writeheader()
+        writer.writerows(catalogue.rows())
+    with open(files[1], "w", newline="") as fh:
+        w = csv.writer(fh)
+        w.writerow(["seed", "seed_bits", "reached_bits", "outcome", "state", "min_eigenvalue",
+                    "residual", "message"])
+        for s in catalogue.seeds:
+            w.writerow([s.seed, "".join(map(str, s.seed_bits)), "".join(map(str, s.reached_bits)),
+                        s.outcome, s.state or "", s.min_eigenvalue, s.residual, s.message])
+    ds = catalogue.to_dataset()
+    ds.attrs["config"] = dump_config(catalogue.model.tube)
+    ds.to_netcdf(files[2], engine="h5netcdf")
+    hier = hierarchy(catalogue)
+    hier.to_netcdf(files[3], engine="h5netcdf")
+    files.append(write_graphml(graph, out / "transitions.graphml"))
+    paths, names = _pathways(graph)
+    figures = {
+        "transitions.png": lambda: transition_diagram(graph, pathways=paths, names=names).figure,
+        "endpoint_space.png": lambda: endpoint_space(ds).figure,
+        "distributions.png": lambda: distributions(hier)[0].figure,
+    }
+    for name, draw in figures.items():
+        fig = draw()
+        try:
+            fig.savefig(out / name, dpi=300)
+        finally:
+            plt.close(fig)
+        files.append(out / name)
+    return files
+
+
+def states(
+    config: Annotated[Path, typer.Argument(help="Tube configuration (TOML).", exists=True)],
+    out: Annotated[Path, typer.Option("--out", help="Output directory.")] = Path("states"),
+    barriers: Annotated[
+        bool, typer.Option("--barriers", help="Also compute the energy barrier of every edge.")
+    ] = False,
+    quiet: Annotated[bool, typer.Option("--quiet", "-q", help="No progress or summary.")] = False,
+) -> None:
+    """Enumerate the stable states of a tube; write states.csv/.nc, transitions.graphml and
+    the transition, endpoint-space and distribution figures."""
+    import biplan
+    from biplan.analysis.transitions import transition_graph
+
+    model = biplan.Model(biplan.load_config(config))
+    catalogue = _progress_enumeration(model, quiet)
+    graph = transition_graph(catalogue)
+    if barriers:
+        _annotate(model, catalogue, graph, quiet)
+    write_states(catalogue, graph, out)
+    n_seeds = len(catalogue.seeds)
+    mismatched = len(catalogue.mismatched_seeds)
+    failed = sum(s.outcome == "failed" for s in catalogue.seeds)
+    Console(quiet=quiet, highlight=False).print(
+        f"[green]{len(catalogue)} stable states[/] from {n_seeds} seeds "
+        f"({mismatched} reached other bits, {len(catalogue.unstable_eigenvalues)} unstable "
+        f"equilibria, {failed} failed) in {catalogue.elapsed:.1f} s; "
+        f"{graph.number_of_edges()} single-fold transitions\n"
+        f"states: {' '.join(catalogue.names)}\nwrote {out}/"
+    )
+
+
+def _annotate(model: Any, catalogue: Any, graph: Any, quiet: bool) -> None:
+    from biplan.analysis.transitions import annotate_barriers
+
+    with Console(stderr=True, quiet=quiet).status("computing edge barriers (NEB)…"):
+        annotate_barriers(graph, model, catalogue)
+
+
+def path(
+    config: Annotated[Path, typer.Argument(help="Tube configuration (TOML).", exists=True)],
+    start: Annotated[str, typer.Argument(help="Start state label, e.g. 2A.")],
+    target: Annotated[str, typer.Argument(help="Target state label, e.g. 66.")],
+    weight: Annotated[
+        str, typer.Option(help="'switches' (fewest fold switches) or 'barrier'.")
+    ] = "switches",
+    all_paths: Annotated[bool, typer.Option("--all", help="Every shortest pathway.")] = False,
+    quiet: Annotated[bool, typer.Option("--quiet", "-q", help="No progress.")] = False,
+) -> None:
+    """Print the transition pathway between two stable states and its barriers."""
+    import biplan
+    from biplan._errors import ConfigError
+    from biplan.analysis.transitions import pathway, transition_graph
+
+    if weight not in ("switches", "barrier"):
+        raise ConfigError("--weight", weight, "'switches' or 'barrier'")
+    model = biplan.Model(biplan.load_config(config))
+    catalogue = _progress_enumeration(model, quiet)
+    graph = transition_graph(catalogue)
+    _annotate(model, catalogue, graph, quiet)
+    found = pathway(graph, start, target, all_paths=all_paths,
+                    weight=None if weight == "switches" else "barrier")
+    paths = found if all_paths else [found]
+    console = Console(highlight=False)
+    for p in paths:
+        console.print(" → ".join(p))  # type: ignore[arg-type]
+        for u, v in zip(p[:-1], p[1:], strict=True):  # type: ignore[index]
+            d = graph.edges[u, v]
+            e_u = graph.nodes[u]["energy"]
+            up = d.get("saddle_energy", float("nan")) - e_u
+            force = d.get("departure_force", float("nan"))
+            console.print(
+                f"  {u} → {v}: fold {d['fold_set']} {d['fold_index']}, "
+                f"barrier {up:.4g} N·mm, departure force {force:.4g} N"
+            )

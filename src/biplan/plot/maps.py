@@ -1,0 +1,151 @@
+"""Design and stability maps (paper Fig. 3 A.1 and A.3).
+
+* :func:`design_map` — filled contours of the terminal u_z/l₀ or u_r/l₀ of the force ramp over
+  (b, C), with the validated design (b = 0.573, C = 1.444) starred and points where stability
+  was lost hatched; failed points are left blank.
+* :func:`stability_map` — regions coloured monostable / bistable / multistable over (U/l₀, C)
+  (grey where no stable equilibrium was found, white where the point failed), the transition
+  band hatched and outlined.
+
+Same contract as every plotting function: ``f(ds, *, ax=None, ...) -> Axes``; a new
+journal-column figure (3.4 × 2.6 in, 8 pt) when no Axes is given; no ``show()``.
+"""
+
+from __future__ import annotations
+
+from typing import TYPE_CHECKING, Any
+
+import numpy as np
+
+from biplan._errors import ConfigError
+from biplan.plot.response import COLUMN_FIGSIZE, FONT_SIZE, _new_axes, _style
+
+if TYPE_CHECKING:
+    from matplotlib.axes import Axes
+
+__all__ = ["REGIME_COLORS", "VALIDATED_DESIGN", "design_map", "stability_map"]
+
+#: (b, C) of the validated semi-bistable design (SI Table calib).
+VALIDATED_DESIGN = (0.573, 1.444)
+#: Okabe–Ito colours of the regimes: monostable, bistable, multistable.
+REGIME_COLORS = ("#56B4E9", "#E69F00", "#CC79A7")
+#: Colour of points where no stable equilibrium was found (regime 0).
+NONE_COLOR = "#BBBBBB"
+_LABELS = {"u_z": r"$u_z/l_0$", "u_r": r"$u_r/l_0$"}
+
+
+def _require(ds: Any, names: tuple[str, ...], what: str) -> None:
+    missing = [n for n in names if n not in ds.variables]
+    if missing:
+        raise ConfigError("map", f"missing {', '.join(missing)}", what)
+
+
+def design_map(
+    ds: Any,
+    variable: str = "u_z",
+    *,
+    ax: Axes | None = None,
+    star: tuple[float, float] | None = VALIDATED_DESIGN,
+    levels: int = 12,
+    cmap: str = "viridis",
+) -> Axes:
+    """Contours of ``variable`` (``u_z`` or ``u_r``, normalised by l₀) over (b, C).
+
+    Parameters
+    ----------
+    ds : xarray.Dataset
+        A force-ramp design map with dims (b, C) (``sweep`` / ``biplan map design``).
+    variable : str
+        ``"u_z"`` or ``"u_r"``.
+    ax : Axes, optional
+    star : (float, float), optional
+        (b, C) to mark with a star; None for none.
+    levels : int
+        Number of contour levels.
+    cmap : str
+        Matplotlib colour map.
+    """
+    _require(ds, (variable, "b", "C"), "a design map with dims (b, C)")
+    da = ds[variable].transpose("C", "b")
+    ax = _new_axes(ax, COLUMN_FIGSIZE)
+    b, c, z = ds["b"].values, ds["C"].values, np.ma.masked_invalid(da.values)
+    cs: Any
+    if b.size > 1 and c.size > 1:
+        cs = ax.contourf(b, c, z, levels=levels, cmap=cmap)
+        ax.contour(b, c, z, levels=cs.levels, colors="k", linewidths=0.3, alpha=0.5)
+    else:
+        cs = ax.pcolormesh(b, c, z, cmap=cmap, shading="nearest")
+    cbar = ax.figure.colorbar(cs, ax=ax)
+    cbar.set_label(_LABELS.get(variable, variable), fontsize=FONT_SIZE)
+    cbar.ax.tick_params(labelsize=FONT_SIZE)
+    if "stability_lost" in ds and b.size > 1 and c.size > 1:
+        lost = ds["stability_lost"].transpose("C", "b").values
+        if np.nansum(lost) > 0:
+            ax.contourf(b, c, np.nan_to_num(lost), levels=[0.5, 1.5], colors="none",
+                        hatches=["///"])  # fmt: skip
+    if star is not None:
+        ax.plot(*star, marker="*", ms=10, mfc="white", mec="k", mew=0.8, ls="none",
+                label="validated design")  # fmt: skip
+    ax.set_xlabel(r"geometric ratio $b$")
+    ax.set_ylabel(r"stiffness ratio $C$")
+    _style(ax)
+    return ax
+
+
+def stability_map(ds: Any, *, ax: Axes | None = None, legend: bool = True) -> Axes:
+    """Mono/bi/multistable regions over (U/l₀, C) with the transition band hatched.
+
+    Parameters
+    ----------
+    ds : xarray.Dataset
+        A stability map with ``regime`` over dims (C, displacement) and ``transition``.
+    ax : Axes, optional
+    legend : bool
+        Draw the legend of the regimes.
+    """
+    from matplotlib.colors import BoundaryNorm, ListedColormap
+    from matplotlib.patches import Patch, Rectangle
+
+    _require(ds, ("regime", "displacement", "C"), "a stability map with dims (C, displacement)")
+    ax = _new_axes(ax, COLUMN_FIGSIZE)
+    reg = ds["regime"].transpose("C", "displacement").values
+    u, c = ds["displacement"].values, ds["C"].values
+    cmap = ListedColormap((NONE_COLOR, *REGIME_COLORS)).with_extremes(bad="white")
+    norm = BoundaryNorm([-0.5, 0.5, 1.5, 2.5, 3.5], cmap.N)
+    ax.pcolormesh(u, c, np.ma.masked_invalid(reg), cmap=cmap, norm=norm,
+                  shading="nearest")  # fmt: skip
+    if "transition" in ds:
+        band = ds["transition"].transpose("C", "displacement").values.astype(float)
+        ue, ce = _edges(u), _edges(c)
+        for j, i in zip(*np.nonzero(band > 0.5), strict=True):
+            cell = Rectangle(
+                (ue[i], ce[j]), ue[i + 1] - ue[i], ce[j + 1] - ce[j],
+                fill=False, hatch="xx", linewidth=0.0, edgecolor="0.2",
+            )  # fmt: skip
+            ax.add_patch(cell)
+        if band.sum() > 0 and u.size > 1 and c.size > 1:
+            ax.contour(u, c, band, levels=[0.5], colors="k", linewidths=0.8)
+    if legend:
+        handles = [
+            Patch(color=col, label=lab)
+            for col, lab in zip(
+                REGIME_COLORS, ("monostable", "bistable", "multistable"), strict=True
+            )
+        ]
+        if np.any(reg == 0):
+            handles.append(Patch(color=NONE_COLOR, label="none found"))
+        handles.append(Patch(facecolor="none", edgecolor="k", hatch="xx", label="transition"))
+        ax.legend(handles=handles, fontsize=FONT_SIZE - 1, loc="upper right", frameon=True)
+    ax.set_xlabel(r"normalised displacement $U/l_0$")
+    ax.set_ylabel(r"stiffness ratio $C$")
+    _style(ax)
+    return ax
+
+
+def _edges(x: np.ndarray) -> np.ndarray:
+    """Cell edges around the centres ``x``."""
+    x = np.asarray(x, dtype=float)
+    if x.size == 1:
+        return np.array([x[0] - 0.5, x[0] + 0.5])
+    mid = 0.5 * (x[1:] + x[:-1])
+    return np.r_[2 * x[0] - mid[0], mid, 2 * x[-1] - mid[-1]]

@@ -1,0 +1,241 @@
+"""``biplan reproduce --quick``: every promised file, a computed verdict for every claim.
+
+The end-to-end run uses the layouts the rest of the suite compiles (the six-module
+semi-bistable and the four-module fully bistable tubes; design-map chunks of 4). The claim
+functions are also checked on hand-made results: a paper-like input must give ``reproduced``
+and a contrary one ``not`` — so no verdict is a constant — and their source must derive every
+verdict through ``grade``/``grade_distance`` (AST check).
+"""
+
+from __future__ import annotations
+
+import ast
+import inspect
+import re
+import textwrap
+from pathlib import Path
+
+import numpy as np
+import pytest
+import xarray as xr
+
+from biplan.cli.main import main
+from biplan.cli.reproduce import FIGURE_FILES
+from biplan.io.reproduction import (
+    CLAIMS,
+    CalibrationFacts,
+    MovieFacts,
+    Results,
+    SemiBistableFacts,
+    StateFacts,
+    ValidationFacts,
+    Verdict,
+    assess,
+    grade,
+    grade_distance,
+)
+
+DATA_FILES = (
+    "REPRODUCTION.md",
+    "semi_sweep.csv",
+    "validation.csv",
+    "design_map/map.nc",
+    "stability_map/map.nc",
+    "states/states.csv",
+    "states/transitions.graphml",
+    "states/hierarchy.nc",
+    "cft_calibration.csv",
+    "ramp.nc",
+)
+PNG = b"\x89PNG\r\n\x1a\n"
+
+
+# --- the end-to-end quick run ----------------------------------------------------------------
+@pytest.fixture(scope="module")
+def quick_run(tmp_path_factory: pytest.TempPathFactory) -> Path:
+    out = tmp_path_factory.mktemp("reproduce")
+    with pytest.raises(SystemExit) as exc:
+        main(["reproduce", "--quick", "--quiet", "--out", str(out)])
+    assert exc.value.code in (0, None)
+    return out
+
+
+@pytest.mark.slow
+def test_quick_run_writes_every_promised_file(quick_run: Path) -> None:
+    errors = quick_run / "errors.log"
+    assert not errors.exists(), errors.read_text()
+    for name in DATA_FILES:
+        assert (quick_run / name).stat().st_size > 0, name
+    for files in FIGURE_FILES.values():
+        for name in files:
+            if name.startswith("movie_S1"):
+                movies = list(quick_run.glob("movie_S1.*"))
+                assert movies and movies[0].stat().st_size > 0
+            else:
+                assert (quick_run / name).read_bytes()[:8] == PNG, name
+
+
+@pytest.mark.slow
+def test_quick_report_has_a_verdict_for_every_claim(quick_run: Path) -> None:
+    text = (quick_run / "REPRODUCTION.md").read_text()
+    for claim in CLAIMS:
+        row = [line for line in text.splitlines() if line.startswith(f"| `{claim.id}` |")]
+        assert len(row) == 1, claim.id
+        verdict = re.search(r"\*\*(reproduced|partly|not)\*\*", row[0])
+        assert verdict, row[0]
+        assert "stage failed" not in row[0], row[0]
+    for files in FIGURE_FILES.values():  # figures are linked
+        for name in files:
+            if not name.startswith("movie"):
+                assert f"]({name})" in text
+    assert "## Stages" in text and "failed:" not in text
+
+
+# --- verdicts are computed -------------------------------------------------------------------
+def _semi(good: bool) -> SemiBistableFacts:
+    n = 30
+    u = np.linspace(0.3, 9.0, n)
+    if good:  # phase 1 to 1.5 N, one snap, phase 2 rising; bending in phase 1 and the snap
+        force = np.r_[np.linspace(0.1, 1.5, 10), np.linspace(0.5, 2.0, n - 10)]
+        stable = np.ones(n, dtype=bool)
+        switched = np.zeros(n, dtype=bool)
+        switched[10] = True
+        u_r = np.r_[-0.02 * force[:10], -3.0, -0.5 * np.ones(n - 11)]
+        theta = np.r_[-0.02 * force[:10], -0.5, -0.05 * np.ones(n - 11)]
+        b = 0.58
+    else:  # no regular phase 1, no snap, no bending
+        force = np.linspace(0.1, 3.0, n)
+        stable = np.zeros(n, dtype=bool)
+        switched = np.zeros(n, dtype=bool)
+        u_r = theta = np.zeros(n)
+        b = 0.8
+    return SemiBistableFacts(b, 1.444, 21.6, u, force, u.copy(), u_r, theta, stable, switched)
+
+
+def _design_map(good: bool) -> xr.Dataset:
+    b, c = [0.45, 0.58, 0.7], [0.5, 1.5, 3.0]
+    i, j = np.meshgrid(np.arange(3), np.arange(3), indexing="ij")
+    mag = np.array([[9.0, 6.0, 5.0], [7.0, 4.0, 1.0], [8.0, 5.0, 3.0]])
+    if good:
+        u_z, u_r = 1.0 - 0.2 * i - 0.1 * j, -0.01 * mag
+    else:
+        u_z, u_r = 0.2 * i + 0.1 * j, -0.01 * mag[::-1, ::-1].T[::-1]
+        b, c = [0.65, 0.7, 0.75], [2.0, 3.0, 4.0]
+    return xr.Dataset({"u_z": (("b", "C"), u_z), "u_r": (("b", "C"), u_r)}, coords={"b": b, "C": c})
+
+
+def _stability_map(good: bool) -> xr.Dataset:
+    regime = np.array([[1, 2, 3], [1, 3, 2], [1, 1, 2]] if good else [[1, 1, 1]] * 2 + [[3, 1, 1]])
+    band = np.zeros((3, 3), dtype=np.int8)
+    band[1, 1] = int(good)
+    dims = ("C", "displacement")
+    return xr.Dataset(
+        {"regime": (dims, regime), "transition": (dims, band)},
+        coords={"C": [0.5, 1.5, 3.0], "displacement": [0.01, 0.05, 0.1]},
+    )
+
+
+def _states(good: bool) -> StateFacts:
+    if good:
+        labels = ("00", "2A", "1B", "66", *(f"{k:02X}" for k in range(0x70, 0x70 + 30)))
+        u_z, u_r = np.full(34, 0.5), np.full(34, 0.0)
+        u_z[[2, 3]], u_r[[2, 3]] = 0.9, (0.4, 0.2)
+        theta = np.full(34, 1 / 3)
+        theta[[2, 3]] = 2 / 3
+        circ = np.zeros(34, dtype=int)
+        pathways = {"p1": ("2A", "66"), "p2": ("2A", "1B"), "p3": ("66", "00")}
+        theta_counts = np.array([0, 0, 1, 3, 20, 8, 2])
+        u_z_counts = np.array([1, 5, 2, 0, 3, 6, 1])
+        u_r_counts = np.array([12, 3, 2, 6, 4, 2, 1, 0])
+        branches, branch_theta = np.arange(4), np.array([0.0, 1 / 3, 2 / 3, 1.0])
+        rms = np.array([0.1, 0.2, 0.3, 0.4])
+    else:
+        labels = ("01", "02", "03", "04", "05")
+        u_z, u_r, theta = np.full(5, 0.5), np.full(5, 0.7), np.zeros(5)
+        circ = np.zeros(5, dtype=int)
+        pathways = {"p1": None, "p2": None, "p3": None}
+        theta_counts = np.array([0, 0, 0, 5, 0, 0, 0])
+        u_z_counts = np.zeros(7, dtype=int)
+        u_r_counts = np.array([0, 0, 0, 0, 0, 0, 0, 5])
+        branches, branch_theta, rms = np.arange(2), np.array([0.0, 0.5]), np.array([0.2, 0.1])
+    n = len(labels)
+    return StateFacts(
+        n_seeds=128,
+        labels=labels,
+        u_z=u_z,
+        u_r=u_r,
+        Theta=theta,
+        n_open_helical=np.ones(n, dtype=int),
+        n_open_circular=circ,
+        theta_bins=np.arange(-3, 4) / 3,
+        theta_counts=theta_counts,
+        u_z_bins=np.linspace(0.0, 1.2, 7),
+        u_z_counts=u_z_counts,
+        u_r_bins=np.linspace(0.0, 0.7, 8),
+        u_r_counts=u_r_counts,
+        branches=branches,
+        branch_theta=branch_theta,
+        branch_rms_u_z=rms,
+        branch_rms_u_r=rms,
+        pathways=pathways,
+    )
+
+
+def _results(good: bool) -> Results:
+    truth = {"k1": 0.9, "k2": -0.2, "k3": 0.6}
+    est = {k: ((v if good else 2 * v), np.nan, np.nan) for k, v in truth.items()}
+    return Results(
+        semi=_semi(good),
+        design_map=_design_map(good),
+        stability_map=_stability_map(good),
+        validation=ValidationFacts(0.02, 0.1 if good else 0.9, 50, not good, "test"),
+        states=_states(good),
+        calibration=(
+            CalibrationFacts("trilinear", est, truth, 0.02 if good else 1.0, 0.02, not good),
+        ),
+        movie=MovieFacts("movie_S1.gif", 20 if good else 2, good, 1.6),
+    )
+
+
+@pytest.mark.parametrize("claim", CLAIMS, ids=[c.id for c in CLAIMS])
+def test_verdict_follows_the_results(claim) -> None:
+    good = assess(_results(True), [claim])[0].finding
+    bad = assess(_results(False), [claim])[0].finding
+    assert good.verdict is Verdict.REPRODUCED, (good.value, good.reason)
+    assert bad.verdict is Verdict.NOT, (bad.value, bad.reason)
+
+
+@pytest.mark.parametrize("claim", CLAIMS, ids=[c.id for c in CLAIMS])
+def test_no_verdict_is_typed(claim) -> None:
+    """Every verdict comes out of ``grade``/``grade_distance``; no literal verdict."""
+    tree = ast.parse(textwrap.dedent(inspect.getsource(claim.check)))
+    literals = {v.value for v in Verdict}
+    calls = set()
+    for node in ast.walk(tree):
+        if isinstance(node, ast.Attribute) and isinstance(node.value, ast.Name):
+            assert node.value.id != "Verdict", f"{claim.id}: Verdict.{node.attr}"
+        if isinstance(node, ast.Constant) and isinstance(node.value, str):
+            assert node.value not in literals, f"{claim.id}: literal {node.value!r}"
+        if isinstance(node, ast.Call) and isinstance(node.func, ast.Name):
+            calls.add(node.func.id)
+    assert calls & {"grade", "grade_distance"}, claim.id
+
+
+def test_failed_stage_is_reported_not_computed() -> None:
+    results = _results(True)
+    results.states = None
+    results.errors["states"] = "ConvergenceError: boom"
+    out = {a.claim.id: a.finding for a in assess(results)}
+    assert out["fig4.count"].verdict is Verdict.NOT
+    assert "boom" in out["fig4.count"].reason
+    assert out["fig3.A1.extension"].verdict is Verdict.REPRODUCED
+
+
+def test_grading_helpers() -> None:
+    assert grade([True, True]) is Verdict.REPRODUCED
+    assert grade([True, False]) is Verdict.PARTLY
+    assert grade([False]) is Verdict.NOT and grade([]) is Verdict.NOT
+    assert grade_distance(0.0, 0.0, 1.0) is Verdict.REPRODUCED
+    assert grade_distance(0.5, 0.0, 1.0) is Verdict.PARTLY
+    assert grade_distance(2.0, 0.0, 1.0) is Verdict.NOT
+    assert grade_distance(float("nan"), 0.0, 1.0) is Verdict.NOT

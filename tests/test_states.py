@@ -1,0 +1,187 @@
+"""Stable-state enumeration, labels, transition graph, hierarchy (issue "stable states")."""
+
+from __future__ import annotations
+
+import itertools
+
+import networkx as nx
+import numpy as np
+import pytest
+
+import biplan
+from biplan.analysis.hierarchy import hierarchy
+from biplan.analysis.labels import (
+    bistable_folds,
+    bits_to_label,
+    hamming,
+    label_to_bits,
+    physical_folds,
+)
+from biplan.analysis.states import enumerate_states
+from biplan.analysis.transitions import pathway, transition_graph, write_graphml
+from biplan.assembly import residual as kkt_residual
+
+RESIDUAL_TOL = 1e-7
+
+
+@pytest.fixture(scope="module")
+def catalogue4(model4):
+    return enumerate_states(model4)
+
+
+@pytest.fixture(scope="module")
+def catalogue1(model1):
+    return enumerate_states(model1)
+
+
+# --- labels -------------------------------------------------------------------------------
+def test_paper_label_example():
+    assert bits_to_label((0, 0, 1, 1, 0, 1, 1)) == "1B"
+    assert bits_to_label((0, 1, 0, 1, 0, 1, 0)) == "2A"
+    assert bits_to_label((1, 1, 0, 0, 1, 1, 0)) == "66"
+    assert label_to_bits("1B", 7) == (0, 0, 1, 1, 0, 1, 1)
+
+
+@pytest.mark.parametrize("n", [1, 3, 4, 7, 9])
+def test_labels_round_trip(n):
+    for bits in itertools.product((0, 1), repeat=n):
+        label = bits_to_label(bits)
+        assert len(label) == (n + 3) // 4
+        assert label_to_bits(label, n) == bits
+
+
+def test_bad_labels_are_rejected():
+    with pytest.raises(biplan.ConfigError, match="label"):
+        label_to_bits("ZZ", 7)
+    with pytest.raises(biplan.ConfigError, match="label"):
+        label_to_bits("80", 7)  # needs 8 bits
+    with pytest.raises(biplan.ConfigError, match="bits"):
+        bits_to_label((0, 2))
+
+
+def test_physical_fold_order(model4, model1):
+    # Four modules without a base fold: H4 C34 H3 C23 H2 C12 H1 (MODEL §15 CHOICE B1).
+    order = [(f.set, f.index) for f in physical_folds(model4.tube)]
+    assert order == [
+        ("helical", 3), ("circular", 2), ("helical", 2), ("circular", 1),
+        ("helical", 1), ("circular", 0), ("helical", 0),
+    ]
+    # One module on a base fold with a linear helical law: only the base fold is bistable.
+    assert [(f.set, f.index) for f in bistable_folds(model1.tube)] == [("circular", 0)]
+
+
+# --- enumeration --------------------------------------------------------------------------
+def test_single_bistable_fold_has_two_states_known_by_hand(catalogue1, model1):
+    """One module on a bistable base fold: closed (q = 0) and the uniformly open fold."""
+    assert sorted(s.label for s in catalogue1.states) == ["0", "1"]
+    closed, open_ = catalogue1.state("0"), catalogue1.state("1")
+    np.testing.assert_allclose(closed.q, 0.0, atol=1e-6)  # SFB smoothing: w·λ = ε²/2
+    assert closed.energy == pytest.approx(0.0, abs=1e-10)
+    law = model1.tube.circular_laws[0]
+    w_s = law.wells()[-1]
+    circumference = 2 * np.pi * model1.tube.development.radius
+    # The open base fold is uniform at the open well (the linear helical fold is unstrained).
+    assert open_.energy == pytest.approx(circumference * float(law.energy_density(w_s)), rel=1e-6)
+    assert open_.u_z == pytest.approx(w_s, rel=1e-6)
+    assert abs(open_.u_r) < 1e-6 and abs(open_.theta) < 1e-6
+    assert all(s.matches_seed for s in catalogue1.seeds)
+
+
+def test_states_are_stable_equilibria(catalogue4, model4):
+    assert len(catalogue4) >= 4
+    zero = biplan.Load.of_force(0.0)
+    for s in catalogue4.states:
+        r = np.asarray(kkt_residual(model4.layout, model4.params, s.z, zero))
+        assert np.max(np.abs(r)) < RESIDUAL_TOL, s.name
+        sol = biplan.solve_equilibrium(model4, None, s.z)
+        assert sol.converged
+        np.testing.assert_allclose(sol.q, s.q, atol=1e-7)
+        verdict = biplan.classify(model4, sol)
+        assert verdict.verdict is biplan.Verdict.STABLE, s.name
+        assert verdict.min_eigenvalue == pytest.approx(s.min_eigenvalue, rel=1e-5, abs=1e-8)
+
+
+def test_rejected_equilibria_are_not_stable(catalogue4, model4):
+    for z, eig in zip(catalogue4.unstable_z, catalogue4.unstable_eigenvalues, strict=True):
+        assert eig <= catalogue4.settings.stability_tolerance
+        sol = biplan.solve_equilibrium(model4, None, z)
+        assert sol.converged
+        assert biplan.classify(model4, sol).min_eigenvalue <= 1e-8
+
+
+def test_states_are_distinct_and_every_seed_is_accounted_for(catalogue4):
+    qs = np.array([s.q for s in catalogue4.states])
+    for i, j in itertools.combinations(range(len(qs)), 2):
+        assert np.max(np.abs(qs[i] - qs[j])) > catalogue4.settings.duplicate_tolerance
+    assert len(catalogue4.seeds) == 2**7
+    assert len(set(catalogue4.names)) == len(catalogue4)
+    reached = {name for s in catalogue4.seeds if s.state for name in [s.state]}
+    assert reached == set(catalogue4.names)
+    for s in catalogue4.states:
+        assert s.seeds, s.name
+    for seed in catalogue4.seeds:
+        if seed.outcome == "stable":
+            assert catalogue4.state(seed.state).bits == seed.reached_bits
+
+
+def test_closed_state_is_found(catalogue4):
+    closed = catalogue4.state("00")
+    np.testing.assert_allclose(closed.q, 0.0, atol=1e-6)
+
+
+# --- graph --------------------------------------------------------------------------------
+def test_graph_edges_are_exactly_hamming_one(catalogue4, tmp_path):
+    g = transition_graph(catalogue4)
+    assert set(g.nodes) == set(catalogue4.names)
+    for a, b in itertools.combinations(catalogue4.states, 2):
+        assert g.has_edge(a.name, b.name) == (hamming(a.bits, b.bits) == 1)
+    back = nx.read_graphml(write_graphml(g, tmp_path / "t.graphml"))
+    assert set(back.edges) == {tuple(e) for e in g.edges} | {(b, a) for a, b in g.edges} & set(
+        back.edges
+    )
+    assert back.number_of_edges() == g.number_of_edges()
+
+
+def test_pathway_is_a_shortest_chain_of_single_fold_switches(catalogue4):
+    g = transition_graph(catalogue4)
+    component = max(nx.connected_components(g), key=len)
+    names = sorted(component)
+    start, target = names[0], names[-1]
+    path = pathway(g, start, target)
+    assert path[0] == start and path[-1] == target
+    assert len(path) - 1 == nx.shortest_path_length(g, start, target)
+    for u, v in zip(path[:-1], path[1:], strict=True):
+        assert hamming(catalogue4.state(u).bits, catalogue4.state(v).bits) == 1
+    every = pathway(g, start, target, all_paths=True)
+    assert path in every and all(len(p) == len(path) for p in every)
+    with pytest.raises(biplan.ConfigError, match="start"):
+        pathway(g, "ZZ", target)
+
+
+# --- hierarchy ----------------------------------------------------------------------------
+def test_hierarchy_counts_and_branches(catalogue4):
+    h = hierarchy(catalogue4)
+    n = len(catalogue4)
+    assert int(h["count_Theta"].sum()) == n
+    assert int(h["count_u_z"].sum()) == n
+    assert int(h["count"].sum()) == n
+    assert float(np.max(np.abs(h["Theta"]))) == pytest.approx(1.0)
+    for s, branch, sub in zip(catalogue4.states, h["slope_branch"].values, h["sub_branch"].values,
+                              strict=True):
+        hel, circ = catalogue4.open_counts(s)
+        assert (branch, sub) == (hel, circ)
+    for b in h["branch"].values:
+        sel = h["slope_branch"].values == b
+        rms = np.sqrt(np.mean(h["u_z_rel"].values[sel] ** 2))
+        assert float(h["rms_u_z_rel"].sel(branch=b)) == pytest.approx(rms)
+
+
+def test_dataset_round_trip(catalogue4, tmp_path):
+    ds = catalogue4.to_dataset()
+    assert ds.attrs["kind"] == "states" and ds.attrs["n_stable"] == len(catalogue4)
+    ds.to_netcdf(tmp_path / "s.nc", engine="h5netcdf")
+    import xarray as xr
+
+    back = xr.load_dataset(tmp_path / "s.nc", engine="h5netcdf")
+    np.testing.assert_array_equal(back["q"].values, ds["q"].values)
+    assert list(back["label"].values) == [s.label for s in catalogue4.states]
