@@ -136,6 +136,7 @@ def _stability_map(good: bool) -> xr.Dataset:
 
 
 def _states(good: bool) -> StateFacts:
+    pathways: dict[str, tuple[str, ...] | None]
     if good:
         labels = ("00", "2A", "1B", "66", *(f"{k:02X}" for k in range(0x70, 0x70 + 30)))
         u_z, u_r = np.full(34, 0.5), np.full(34, 0.0)

@@ -63,8 +63,13 @@ def test_physical_fold_order(model4, model1):
     # Four modules without a base fold: H4 C34 H3 C23 H2 C12 H1 (MODEL §15 CHOICE B1).
     order = [(f.set, f.index) for f in physical_folds(model4.tube)]
     assert order == [
-        ("helical", 3), ("circular", 2), ("helical", 2), ("circular", 1),
-        ("helical", 1), ("circular", 0), ("helical", 0),
+        ("helical", 3),
+        ("circular", 2),
+        ("helical", 2),
+        ("circular", 1),
+        ("helical", 1),
+        ("circular", 0),
+        ("helical", 0),
     ]
     # One module on a base fold with a linear helical law: only the base fold is bistable.
     assert [(f.set, f.index) for f in bistable_folds(model1.tube)] == [("circular", 0)]
@@ -150,7 +155,7 @@ def test_pathway_is_a_shortest_chain_of_single_fold_switches(catalogue4):
     path = pathway(g, start, target)
     assert path[0] == start and path[-1] == target
     assert len(path) - 1 == nx.shortest_path_length(g, start, target)
-    for u, v in zip(path[:-1], path[1:], strict=True):
+    for u, v in itertools.pairwise(path):
         assert hamming(catalogue4.state(u).bits, catalogue4.state(v).bits) == 1
     every = pathway(g, start, target, all_paths=True)
     assert path in every and all(len(p) == len(path) for p in every)
@@ -166,8 +171,9 @@ def test_hierarchy_counts_and_branches(catalogue4):
     assert int(h["count_u_z"].sum()) == n
     assert int(h["count"].sum()) == n
     assert float(np.max(np.abs(h["Theta"]))) == pytest.approx(1.0)
-    for s, branch, sub in zip(catalogue4.states, h["slope_branch"].values, h["sub_branch"].values,
-                              strict=True):
+    for s, branch, sub in zip(
+        catalogue4.states, h["slope_branch"].values, h["sub_branch"].values, strict=True
+    ):
         hel, circ = catalogue4.open_counts(s)
         assert (branch, sub) == (hel, circ)
     for b in h["branch"].values:
@@ -185,3 +191,47 @@ def test_dataset_round_trip(catalogue4, tmp_path):
     back = xr.load_dataset(tmp_path / "s.nc", engine="h5netcdf")
     np.testing.assert_array_equal(back["q"].values, ds["q"].values)
     assert list(back["label"].values) == [s.label for s in catalogue4.states]
+
+
+# --- R3 EDGE_FIT reading (the fully bistable design's default) ----------------------------
+def _fit_angle(points: np.ndarray, weights: np.ndarray) -> float:
+    """Least-squares tilt of a weighted polyline's points in the (z, s) plane."""
+    c = (weights[:, None] * points).sum(0) / weights.sum()
+    d = points - c
+    szs = (weights * d[:, 0] * d[:, 1]).sum()
+    sss = (weights * d[:, 1] ** 2).sum()
+    return float(np.arctan(-szs / sss))
+
+
+def test_edge_fit_stacks_fitted_edges(catalogue4, model4):
+    """Across every connector the fitted bottom edge of the upper module is parallel to the
+    fitted top edge of the lower module, in global coordinates (edge-fit stacking)."""
+    assert model4.tube.options.chain_attachment.value == "edge_fit"
+    for s in catalogue4.states[:12]:
+        nodes = model4.global_nodes(s.q)
+        ref = model4.global_nodes(np.zeros_like(s.q))
+        for spec in model4.layout.connectors:
+            if spec.lower is None:
+                continue
+            angles = []
+            for m, edge in ((spec.lower, spec.lower_edge), (spec.upper, spec.upper_edge)):
+                idx = np.array([[a, b] for _, a, b in edge.segments]).reshape(-1)
+                w = np.repeat(
+                    [np.linalg.norm(ref[m, b] - ref[m, a]) for _, a, b in edge.segments], 2
+                )
+                angles.append(_fit_angle(nodes[m, idx], w) - _fit_angle(ref[m, idx], w))
+            assert angles[0] == pytest.approx(angles[1], abs=1e-9), s.name
+
+
+def test_edge_fit_slope_branches_follow_open_helical_folds(catalogue4):
+    """Under edge-fit stacking every open helical fold tilts the end: |Θ| grows with the
+    number of open helical folds, so 66 and 1B (two each) share a slope branch."""
+    by_count: dict[int, list[float]] = {}
+    for s in catalogue4.states:
+        by_count.setdefault(catalogue4.open_counts(s)[0], []).append(abs(catalogue4.slope(s)))
+    counts = sorted(by_count)
+    assert by_count[0] and max(by_count[0]) < 1e-6
+    for a, b in itertools.pairwise(counts):
+        assert max(by_count[a]) < min(by_count[b]), (a, b)
+    assert catalogue4.open_counts(catalogue4.state("66"))[0] == 2
+    assert catalogue4.open_counts(catalogue4.state("1B"))[0] == 2

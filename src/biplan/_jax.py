@@ -11,7 +11,10 @@ state relaxation, the stability map) intermittently wedge XLA's multi-threaded E
 the process waits forever in ``block_until_ready`` with no CPU use (the same hang is reported
 upstream for vmapped graphs, where this flag removes it). Single-threaded Eigen costs little
 here (the kernels are many small matrices, parallelised by batching); set
-``BIPLAN_EIGEN_THREADS=on`` to keep the multi-threaded pool.
+``BIPLAN_EIGEN_THREADS=on`` to keep the multi-threaded pool. And it disables XLA:CPU's
+"ynn" fusion (``--xla_cpu_experimental_ynn_fusion_type=``, unless set), which in jaxlib 0.10.2
+hangs or crashes on some batched kernels on Linux x86-64 (jax-ml/jax#39257); the hang seen here
+with the multi-threaded pool already off matches it.
 """
 
 from __future__ import annotations
@@ -19,10 +22,13 @@ from __future__ import annotations
 import os
 from pathlib import Path
 
-if os.environ.get("BIPLAN_EIGEN_THREADS", "").lower() not in {"on", "1", "true"}:
-    _flags = os.environ.get("XLA_FLAGS", "")
-    if "xla_cpu_multi_thread_eigen" not in _flags:
-        os.environ["XLA_FLAGS"] = (_flags + " --xla_cpu_multi_thread_eigen=false").strip()
+_flags = os.environ.get("XLA_FLAGS", "")
+_eigen_threads = os.environ.get("BIPLAN_EIGEN_THREADS", "").lower() in {"on", "1", "true"}
+if not _eigen_threads and "xla_cpu_multi_thread_eigen" not in _flags:
+    _flags += " --xla_cpu_multi_thread_eigen=false"
+if "xla_cpu_experimental_ynn_fusion_type" not in _flags:
+    _flags += " --xla_cpu_experimental_ynn_fusion_type="
+os.environ["XLA_FLAGS"] = _flags.strip()
 
 import jax  # noqa: E402
 

@@ -16,7 +16,7 @@ from dataclasses import dataclass
 
 from biplan.geometry import Tube
 from biplan.laws import LinearLaw, TrilinearLaw
-from biplan.options import ModelOptions
+from biplan.options import ChainAttachment, ModelOptions
 
 __all__ = ["fully_bistable", "semi_bistable"]
 
@@ -59,8 +59,15 @@ def semi_bistable(options: ModelOptions | None = None) -> Tube:
 
 
 def fully_bistable(options: ModelOptions | None = None, n_modules: int = 4) -> Tube:
-    """The fully bistable MFT (four modules, seven bistable folds) with provisional laws."""
-    options = options or ModelOptions()
+    """The fully bistable MFT (four modules, seven bistable folds) with provisional laws.
+
+    Default options: the MODEL.md readings except R3, which is ``EDGE_FIT`` (edge-fit
+    stacking of the module frames; ``docs/states.md``): under it every open helical fold
+    rotates the downstream tube, which is what the paper's slope hierarchy (Fig. 4 B–C)
+    shows; the paper's chain (H^TPC = I, R3 ``ELEMENT``) lets only S-module openings rotate
+    it. The stable states themselves do not depend on R3.
+    """
+    options = options or ModelOptions(chain_attachment=ChainAttachment.EDGE_FIT)
     t = SEMI_BISTABLE_TABLE
     helical = TrilinearLaw.from_table(
         (2.0, -1.6, 1.0), (0.05, 0.3), options.transition_reading

@@ -92,12 +92,14 @@ class ChainAttachment(enum.Enum):
     ``ELEMENT``: the paper's chain — across an SPC the module above rides on the lower
     module's full top element (H^SPC = its rotation), across a TPC it is only translated
     (H^TPC = I). Only S-module helical openings then rotate the downstream tube.
-    ``EDGE_FIT``: across every connector the module above rides on the least-squares rigid fit
-    of the lower module's whole top edge (length-weighted, the same fit that defines the
-    endpoint slope θ). Identical to ``ELEMENT`` across an SPC (a full edge is one rigid
-    element); across a TPC the split edge's mean rotation is passed on, so every open helical
-    fold rotates the downstream tube. Only the reconstruction (endpoint, load height) changes:
-    fold elongations, energy and stability at zero load are the same.
+    ``EDGE_FIT``: edge-fit stacking — each module's frame is placed so that the least-squares
+    rigid fit of its bottom edge (length-weighted, the fit that defines the endpoint slope θ)
+    sits γ above the fit of the lower module's top edge. A module whose helical opening tilts
+    its own bottom edge (an M module) then rotates its body, and everything above it, the
+    other way, so every open helical fold rotates the downstream tube. The seam gap is γ
+    between the fitted edges (the ``ChainOffset`` reading does not apply). Only the
+    reconstruction (endpoint, load height) changes: fold elongations, energy and stability
+    at zero end load are the same.
     """
 
     ELEMENT = "element"

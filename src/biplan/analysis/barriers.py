@@ -81,6 +81,10 @@ class NudgedElasticBand:
         The climbing image switches on once the largest force is below this [N], > 0.
     refine : Newton
         Newton solver of the saddle refinement on the KKT system.
+    fallbacks : tuple of (float, float)
+        (spring, max_step) pairs tried in turn, from the straight band again, when an attempt
+        does not end CONVERGED (band and contact active set can cycle or stray; no setting was
+        found that converges every edge of the four-module tube on its own).
     """
 
     n_images: int = 12
@@ -94,6 +98,7 @@ class NudgedElasticBand:
     contact_tolerance: float = 1e-6
     climb_start: float = 1e-2
     refine: Newton = field(default_factory=lambda: Newton(max_steps=200))
+    fallbacks: tuple[tuple[float, float], ...] = ((0.5, 0.02), (2.0, 0.005))
 
     def __post_init__(self) -> None:
         for name in ("n_images", "max_iterations"):
@@ -120,16 +125,16 @@ class NudgedElasticBand:
         if not isinstance(self.refine, Newton):
             raise ConfigError("NudgedElasticBand.refine", self.refine, "a biplan Newton")
 
-    def settings(self) -> np.ndarray:
+    def settings(self, spring: float | None = None, max_step: float | None = None) -> np.ndarray:
         return np.array(
             [
-                self.spring,
+                self.spring if spring is None else spring,
                 self.tolerance,
                 self.max_iterations,
                 1.0 if self.climbing else 0.0,
                 self.time_step,
                 self.max_time_step,
-                self.max_step,
+                self.max_step if max_step is None else max_step,
                 self.contact_tolerance,
                 self.climb_start,
             ]
@@ -248,10 +253,23 @@ def minimum_energy_path(
     if not isinstance(neb, NudgedElasticBand):
         raise ConfigError("neb", type(neb).__name__, "a NudgedElasticBand")
     za, zb = _as_state(model, z_start, "z_start"), _as_state(model, z_end, "z_end")
+    first = _attempt(model, neb, za, zb, neb.settings())
+    if first.converged:
+        return first
+    for spring, max_step in neb.fallbacks:
+        again = _attempt(model, neb, za, zb, neb.settings(spring, max_step))
+        if again.converged:
+            return again
+    return first
+
+
+def _attempt(
+    model: Model, neb: NudgedElasticBand, za: np.ndarray, zb: np.ndarray, settings: np.ndarray
+) -> MinimumEnergyPath:
     nq = model.n_coordinates
     t = np.linspace(0.0, 1.0, neb.n_images)[:, None]
     band0 = (1.0 - t) * za[None, :nq] + t * zb[None, :nq]
-    out = compiled_band(model.layout)(model.params, jnp.asarray(band0), jnp.asarray(neb.settings()))
+    out = compiled_band(model.layout)(model.params, jnp.asarray(band0), jnp.asarray(settings))
     q = np.asarray(out.q)
     energies = np.asarray(out.energy)
     arc = np.concatenate([[0.0], np.cumsum(np.linalg.norm(np.diff(q, axis=0), axis=1))])

@@ -4,9 +4,10 @@
 bistable folds; 128 for the four-module fully bistable tube), relaxes all of them in one batched
 (``vmap``) computation (:mod:`biplan.solvers._relaxkernel`: a kinematic seed toward the target
 fold openings, a modified-Newton descent of the energy at zero end load with the base clamped,
-and the exact KKT solve), classifies each fold by the phase that occupies the greater part of its length,
-keeps the equilibria whose reduced Hessian is positive definite and removes duplicates by
-coordinates. Equilibria with the same bits but different coordinates stay distinct states.
+and the exact KKT solve), classifies each fold by the phase that occupies the greater part of
+its length, keeps the equilibria whose reduced Hessian is positive definite and removes
+duplicates by coordinates. Equilibria with the same bits but different coordinates stay
+distinct states.
 
 Every seed's outcome is kept (:class:`SeedOutcome`): the state it reached, whether its bits
 are the seed's own, or why it was rejected (unstable equilibrium with its eigenvalue, failed
@@ -19,6 +20,7 @@ import itertools
 import time
 from collections.abc import Callable
 from dataclasses import dataclass, field
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
@@ -30,6 +32,9 @@ from biplan.geometry import FoldRef
 from biplan.solvers._relaxkernel import compiled_relax
 from biplan.solvers.newton import Newton, Status
 from biplan.solvers.observe import STABILITY_TOL, observe_batch
+
+if TYPE_CHECKING:
+    from biplan.analysis.catalogue import StateCatalogue
 
 __all__ = ["Enumeration", "SeedOutcome", "StableState", "enumerate_states", "fold_vector_index"]
 
@@ -126,7 +131,9 @@ def fold_vector_index(model: Model, fold: FoldRef) -> int:
     return fold.index if fold.set == "helical" else model.tube.n_modules + fold.index
 
 
-def _seed_targets(model: Model, folds: tuple[FoldRef, ...]) -> tuple[np.ndarray, np.ndarray]:
+def _seed_targets(
+    model: Model, folds: tuple[FoldRef, ...]
+) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     tube = model.tube
     laws = list(tube.helical_laws) + list(tube.circular_laws)
     seeds = np.array(list(itertools.product((0, 1), repeat=len(folds))), dtype=int)
@@ -195,7 +202,9 @@ def enumerate_states(
     for lo in range(0, len(seeds), settings.chunk):
         hi = min(lo + settings.chunk, len(seeds))
         z, st, res = relax_seeds(model, target[lo:hi], mask[lo:hi], settings)
-        z_parts.append(z), st_parts.append(st), res_parts.append(res)
+        z_parts.append(z)
+        st_parts.append(st)
+        res_parts.append(res)
         if progress is not None:
             progress(hi, len(seeds))
     z, status, residual = (np.concatenate(v) for v in (z_parts, st_parts, res_parts))
@@ -218,7 +227,7 @@ def enumerate_states(
         seed_bits = tuple(int(b) for b in seeds[i])
         bits = tuple(int(b) for b in reached[i])
         eig = float(obs.min_eigenvalue[i])
-        common = {
+        common: dict[str, Any] = {
             "seed": bits_to_label(seed_bits),
             "seed_bits": seed_bits,
             "reached_bits": bits,

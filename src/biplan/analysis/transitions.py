@@ -9,17 +9,26 @@ direction of travel.
 
 from __future__ import annotations
 
-from collections.abc import Callable
+from collections.abc import Callable, Iterable
 from pathlib import Path as FilePath
 from typing import Any
 
 import networkx as nx
 
 from biplan._errors import ConfigError
+from biplan.analysis.barriers import NudgedElasticBand, edge_barriers
 from biplan.analysis.catalogue import StateCatalogue
+from biplan.analysis.departure import departure_force
 from biplan.analysis.labels import hamming
+from biplan.assembly import Model
 
-__all__ = ["barrier_weight", "pathway", "transition_graph", "write_graphml"]
+__all__ = [
+    "annotate_barriers",
+    "barrier_weight",
+    "pathway",
+    "transition_graph",
+    "write_graphml",
+]
 
 
 def transition_graph(catalogue: StateCatalogue) -> nx.Graph:
@@ -98,6 +107,46 @@ def pathway(
         raise ConfigError(
             "target", target, f"a state connected to {start} by single-fold transitions"
         ) from None
+
+
+def annotate_barriers(
+    graph: nx.Graph,
+    model: Model,
+    catalogue: StateCatalogue,
+    edges: Iterable[tuple[str, str]] | None = None,
+    neb: NudgedElasticBand | None = None,
+    departure: bool = False,
+) -> nx.Graph:
+    """Compute the minimum-energy path of edges and store it on them (in place).
+
+    Edge attributes: ``saddle_energy`` [N·mm], ``barrier_forward``/``barrier_backward``
+    [N·mm] from the edge's first/second node (``forward_from`` names the first),
+    ``mep_status``, ``n_negative`` (negative reduced-Hessian eigenvalues at the saddle) and,
+    with ``departure=True``, ``departure_force`` [N] (the end force at which ``forward_from``
+    loses stability on a force ramp, NaN when it does not) and ``departure_lands``.
+
+    Parameters
+    ----------
+    edges : iterable of (name, name), optional
+        Default: every edge of the graph.
+    """
+    todo = list(graph.edges) if edges is None else [tuple(e) for e in edges]
+    pairs = [(catalogue.state(u).z, catalogue.state(v).z) for u, v in todo]
+    for (u, v), mep in zip(todo, edge_barriers(model, pairs, neb), strict=True):
+        data = graph.edges[u, v]
+        data.update(
+            forward_from=u,
+            saddle_energy=float(mep.saddle_energy),
+            barrier_forward=float(mep.barrier_forward),
+            barrier_backward=float(mep.barrier_backward),
+            mep_status=mep.status.name,
+            n_negative=int(mep.n_negative),
+        )
+        if departure:
+            dep = departure_force(model, catalogue.state(u).z, catalogue.state(v).z)
+            data["departure_force"] = float(dep.force)
+            data["departure_lands"] = bool(dep.lands_in_target)
+    return graph
 
 
 def write_graphml(graph: nx.Graph, path: str | FilePath) -> FilePath:

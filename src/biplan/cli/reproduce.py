@@ -13,8 +13,10 @@ and the command goes on):
   ``fig3_A1_design_maps.png``;
 * ``stability_map`` — Fig. 3 A.3 at b = 0.58: ``stability_map/map.nc``,
   ``fig3_A3_stability_map.png``;
-* ``states`` — Fig. 4, the fully bistable four-module tube: ``states/`` (states.csv, seeds.csv,
-  states.nc, hierarchy.nc, transitions.graphml), ``fig4_A_transitions.png``,
+* ``states`` — Fig. 4, the fully bistable four-module tube, by ``biplan states`` in a child
+  process with a time limit (a hung enumeration cannot stop the run): ``states/``
+  (states.csv, seeds.csv, states.nc, hierarchy.nc, transitions.graphml),
+  ``fig4_A_transitions.png``,
   ``fig4_B_endpoint_space.png``, ``fig4_C_distributions.png`` and ``si_distributions.png``;
 * ``calibration`` — SI S10, trilinear and linear CFT calibrations on synthetic specimens of the
   table's laws: ``si_cft_calibration.png``, ``cft_calibration.csv``;
@@ -32,6 +34,7 @@ from __future__ import annotations
 
 import csv
 import shutil
+import subprocess
 import sys
 import time
 import traceback
@@ -56,7 +59,7 @@ from biplan.io.reproduction import (
     report_markdown,
 )
 
-__all__ = ["FIGURE_FILES", "Settings", "reproduce", "run_stages"]
+__all__ = ["FIGURE_FILES", "Settings", "reproduce", "run_stages", "state_facts"]
 
 DPI = 200
 #: The figure files written, by figure key of :data:`biplan.io.reproduction.FIGURES`.
@@ -85,6 +88,7 @@ class Settings:
     bootstrap: int
     movie_frames: int
     time_step: float
+    states_timeout: float
 
     @classmethod
     def quick(cls) -> Settings:
@@ -98,6 +102,7 @@ class Settings:
             bootstrap=20,
             movie_frames=12,
             time_step=0.04,
+            states_timeout=600.0,
         )
 
     @classmethod
@@ -112,6 +117,7 @@ class Settings:
             bootstrap=200,
             movie_frames=100,
             time_step=0.01,
+            states_timeout=3600.0,
         )
 
 
@@ -320,18 +326,27 @@ def _stage_stability_map(ctx: _Context) -> None:
 
 
 def _stage_states(ctx: _Context) -> None:
+    """Runs ``biplan states`` on the fully bistable design in a child process (with a time
+    limit: a hung or crashed enumeration cannot stop the other stages), then reads its files."""
     import biplan
-    from biplan.analysis.hierarchy import hierarchy
-    from biplan.analysis.states import enumerate_states
-    from biplan.analysis.transitions import pathway, transition_graph
-    from biplan.cli.states import write_states
-    from biplan.io.reproduction import PAPER_PATHWAYS
+    from biplan.io.config import dump_config
 
-    model = biplan.Model(biplan.designs.fully_bistable())
-    catalogue = enumerate_states(model)
-    graph = transition_graph(catalogue)
     folder = ctx.out / "states"
-    write_states(catalogue, graph, folder)
+    folder.mkdir(parents=True, exist_ok=True)
+    config = folder / "fully_bistable.toml"
+    config.write_text(dump_config(biplan.designs.fully_bistable()), encoding="utf-8")
+    command = [sys.executable, "-m", "biplan", "states", str(config), "--out", str(folder), "-q"]
+    try:
+        done = subprocess.run(
+            command, capture_output=True, text=True, timeout=ctx.settings.states_timeout
+        )
+    except subprocess.TimeoutExpired:
+        raise TimeoutError(
+            f"`biplan states` did not finish within {ctx.settings.states_timeout:.0f} s"
+        ) from None
+    if done.returncode:
+        tail = (done.stderr or done.stdout).strip().splitlines()[-3:]
+        raise RuntimeError(f"`biplan states` exited with {done.returncode}: {' '.join(tail)}")
     for src, dst in (
         ("transitions.png", "fig4_A_transitions.png"),
         ("endpoint_space.png", "fig4_B_endpoint_space.png"),
@@ -339,21 +354,40 @@ def _stage_states(ctx: _Context) -> None:
         ("distributions.png", "si_distributions.png"),
     ):
         shutil.copyfile(folder / src, ctx.out / dst)
+    ctx.results.states = state_facts(folder)
+
+
+def state_facts(folder: Path) -> StateFacts:
+    """The :class:`~biplan.io.reproduction.StateFacts` of a ``biplan states`` output folder
+    (states.csv, seeds.csv, hierarchy.nc, transitions.graphml)."""
+    import networkx as nx
+    import xarray as xr
+
+    from biplan.analysis.transitions import pathway
+    from biplan.io.reproduction import PAPER_PATHWAYS
+
+    with (folder / "states.csv").open(newline="") as fh:
+        rows = list(csv.DictReader(fh))
+    with (folder / "seeds.csv").open(newline="") as fh:
+        n_seeds = len(list(csv.DictReader(fh)))
+    with xr.open_dataset(folder / "hierarchy.nc", engine="h5netcdf") as h:
+        h = h.load()
+    graph = nx.read_graphml(folder / "transitions.graphml")
+    names = {r["name"] for r in rows}
     pathways: dict[str, tuple[str, ...] | None] = {}
     for name, (a, b) in PAPER_PATHWAYS.items():
         try:
-            pathways[name] = tuple(pathway(graph, a, b))  # type: ignore[arg-type]
-        except Exception:  # a missing state or no route: no pathway
-            pathways[name] = None
-    h = hierarchy(catalogue)
-    rows = catalogue.rows()
+            found = pathway(graph, a, b) if a in names and b in names else None
+        except Exception:  # not connected: no pathway
+            found = None
+        pathways[name] = tuple(found) if found else None  # type: ignore[arg-type]
 
     def col(key: str, dtype: Any = float) -> np.ndarray:
         return np.asarray([r[key] for r in rows], dtype=dtype)
 
-    l0 = catalogue.model.tube.initial_length
-    ctx.results.states = StateFacts(
-        n_seeds=len(catalogue.seeds),
+    l0 = float(h.attrs["initial_length"])
+    return StateFacts(
+        n_seeds=n_seeds,
         labels=tuple(r["label"] for r in rows),
         u_z=col("u_z") / l0,
         u_r=col("u_r") / l0,

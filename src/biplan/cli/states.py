@@ -18,6 +18,7 @@ DIR:
 from __future__ import annotations
 
 import csv
+import itertools
 import sys
 from pathlib import Path
 from typing import TYPE_CHECKING, Annotated, Any
@@ -58,13 +59,14 @@ def _progress_enumeration(model: Any, quiet: bool) -> StateCatalogue:
 def _pathways(graph: Any) -> tuple[list[list[str]], list[str]]:
     from biplan.analysis.transitions import pathway
 
-    paths, names = [], []
+    paths: list[list[str]] = []
+    names: list[str] = []
     for k, (a, b) in enumerate(PAPER_PATHWAYS):
         if a in graph and b in graph:
             try:
-                paths.append(pathway(graph, a, b))
+                paths.append([str(n) for n in pathway(graph, a, b)])
                 names.append(f"p{k + 1}: {a}→{b}")
-            except Exception:  # noqa: BLE001 — disconnected: no pathway to draw
+            except Exception:
                 continue
     return paths, names
 
@@ -90,11 +92,31 @@ def write_states(catalogue: StateCatalogue, graph: Any, out: Path) -> list[Path]
         writer.writerows(catalogue.rows())
     with open(files[1], "w", newline="") as fh:
         w = csv.writer(fh)
-        w.writerow(["seed", "seed_bits", "reached_bits", "outcome", "state", "min_eigenvalue",
-                    "residual", "message"])
+        w.writerow(
+            [
+                "seed",
+                "seed_bits",
+                "reached_bits",
+                "outcome",
+                "state",
+                "min_eigenvalue",
+                "residual",
+                "message",
+            ]
+        )
         for s in catalogue.seeds:
-            w.writerow([s.seed, "".join(map(str, s.seed_bits)), "".join(map(str, s.reached_bits)),
-                        s.outcome, s.state or "", s.min_eigenvalue, s.residual, s.message])
+            w.writerow(
+                [
+                    s.seed,
+                    "".join(map(str, s.seed_bits)),
+                    "".join(map(str, s.reached_bits)),
+                    s.outcome,
+                    s.state or "",
+                    s.min_eigenvalue,
+                    s.residual,
+                    s.message,
+                ]
+            )
     ds = catalogue.to_dataset()
     ds.attrs["config"] = dump_config(catalogue.model.tube)
     ds.to_netcdf(files[2], engine="h5netcdf")
@@ -148,11 +170,14 @@ def states(
     )
 
 
-def _annotate(model: Any, catalogue: Any, graph: Any, quiet: bool) -> None:
+def _annotate(
+    model: Any, catalogue: Any, graph: Any, quiet: bool, edges: Any = None, departure: bool = False
+) -> None:
     from biplan.analysis.transitions import annotate_barriers
 
-    with Console(stderr=True, quiet=quiet).status("computing edge barriers (NEB)…"):
-        annotate_barriers(graph, model, catalogue)
+    n = graph.number_of_edges() if edges is None else len(edges)
+    with Console(stderr=True, quiet=quiet).status(f"computing {n} edge barriers (NEB)…"):
+        annotate_barriers(graph, model, catalogue, edges=edges, departure=departure)
 
 
 def path(
@@ -175,19 +200,29 @@ def path(
     model = biplan.Model(biplan.load_config(config))
     catalogue = _progress_enumeration(model, quiet)
     graph = transition_graph(catalogue)
-    _annotate(model, catalogue, graph, quiet)
-    found = pathway(graph, start, target, all_paths=all_paths,
-                    weight=None if weight == "switches" else "barrier")
-    paths = found if all_paths else [found]
+    if weight == "barrier":
+        _annotate(model, catalogue, graph, quiet)
+    found = pathway(
+        graph,
+        start,
+        target,
+        all_paths=all_paths,
+        weight=None if weight == "switches" else "barrier",
+    )
+    paths: list[list[str]] = found if all_paths else [found]  # type: ignore[assignment,list-item]
+    on_paths = {tuple(e) for p in paths for e in itertools.pairwise(p)}
+    missing = [e for e in on_paths if "saddle_energy" not in graph.edges[e]]
+    if missing:
+        _annotate(model, catalogue, graph, quiet, edges=missing, departure=True)
     console = Console(highlight=False)
     for p in paths:
-        console.print(" → ".join(p))  # type: ignore[arg-type]
-        for u, v in zip(p[:-1], p[1:], strict=True):  # type: ignore[index]
+        console.print(" → ".join(p))
+        for u, v in itertools.pairwise(p):
             d = graph.edges[u, v]
-            e_u = graph.nodes[u]["energy"]
-            up = d.get("saddle_energy", float("nan")) - e_u
+            up = d.get("saddle_energy", float("nan")) - graph.nodes[u]["energy"]
             force = d.get("departure_force", float("nan"))
+            force_text = f", departure force {force:.4g} N" if d.get("forward_from") == u else ""
             console.print(
-                f"  {u} → {v}: fold {d['fold_set']} {d['fold_index']}, "
-                f"barrier {up:.4g} N·mm, departure force {force:.4g} N"
+                f"  {u} → {v}: fold {d['fold_set']} {d['fold_index']}, barrier {up:.4g} N·mm "
+                f"({d.get('mep_status', '?')}){force_text}"
             )

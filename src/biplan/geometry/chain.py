@@ -235,6 +235,11 @@ def _edge_fit(local: Array, ref: Array, segments: tuple[tuple[int, int, int], ..
     return _hom(rot, qc - rot @ pc)
 
 
+def _hom_inverse(h: Array) -> Array:
+    rot_t = h[:2, :2].T
+    return _hom(rot_t, -rot_t @ h[:2, 2])
+
+
 def _frames(
     layout: TubeLayout,
     geom: GeometryParams,
@@ -252,6 +257,19 @@ def _frames(
         out[0] = jnp.eye(3)
     for c, spec in enumerate(layout.connectors):
         up = spec.upper
+        if fit and not paper:
+            # R3 EDGE_FIT: the least-squares fit of the upper module's bottom edge sits γ above
+            # the fit of the lower module's top edge (the clamp line for the base connector):
+            # F_up · fit_up = F_lo · fit_lo · Trans(l + γ)  ⇒  F_up = … · fit_up⁻¹.
+            below = (
+                _trans(z_lo_seam[c] + gam[c])
+                if spec.lower is None
+                else out[spec.lower]  # type: ignore[operator]
+                @ _edge_fit(local[spec.lower], ref[spec.lower], spec.lower_edge.segments)  # type: ignore[union-attr]
+                @ _trans(geom.pitch + gam[c])
+            )
+            out[up] = below @ _hom_inverse(_edge_fit(local[up], ref[up], spec.upper_edge.segments))
+            continue
         if spec.lower is None:
             out[up] = _trans(gam[c] - qm[up, 0]) if paper else _trans(delta[c])
             continue
@@ -268,12 +286,6 @@ def _frames(
                 pivot = ref[lo, PIVOT[e]] + jnp.stack([qm[lo, 0], 0.0])
                 rot = rotation(theta)
                 out[up] = t_lo @ _trans(dp, dp * jnp.tan(theta)) @ _hom(rot, pivot - rot @ pivot)
-        elif fit and e is None:
-            # R3 EDGE_FIT: ride on the fitted split edge; the seam gap stays γ measured from
-            # the fitted edge line (which is at z = l in the fitted frame).
-            assert spec.lower_edge is not None
-            attach = t_lo @ _edge_fit(local[lo], ref[lo], spec.lower_edge.segments)
-            out[up] = attach @ _trans(delta[c] - (z_lo_seam[c] - geom.pitch))
         else:
             attach = t_lo if e is None else t_lo @ _element_hom(qm[lo], ref[lo], e)
             out[up] = attach @ _trans(delta[c])

@@ -95,14 +95,21 @@ def endpoint_space(states: Any, *, ax: Axes | None = None, annotate: bool = True
     hel = np.asarray(states["n_open_helical"].values, dtype=int)
     for b in np.unique(hel):
         sel = hel == b
-        ax.scatter(uz[sel], ur[sel], th[sel], s=14, color=PALETTE[int(b) % len(PALETTE)],
-                   label=f"{b} open helical", depthshade=False)
+        ax.scatter(  # type: ignore[misc]
+            uz[sel],
+            ur[sel],
+            th[sel],
+            s=14,
+            color=PALETTE[int(b) % len(PALETTE)],
+            label=f"{b} open helical",
+            depthshade=False,
+        )
     if annotate:
         for name, x, y, z in zip(states["state"].values, uz, ur, th, strict=True):
-            ax.text(x, y, z, f" {name}", fontsize=FONT_SIZE - 3)
+            ax.text(x, y, z, f" {name}", fontsize=FONT_SIZE - 3)  # type: ignore[arg-type]
     ax.set_xlabel("$u_z/l_0$")
     ax.set_ylabel("$u_r/l_0$")
-    ax.set_zlabel(r"$\Theta$")
+    ax.set_zlabel(r"$\Theta$")  # type: ignore[attr-defined]
     ax.legend(fontsize=FONT_SIZE - 1, frameon=False, loc="upper left")
     _style(ax)
     return ax

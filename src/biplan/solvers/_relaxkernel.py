@@ -40,7 +40,7 @@ from biplan.assembly import (
     guide_values,
     sizes,
 )
-from biplan.solvers.newton import Status, newton_loop
+from biplan.solvers.newton import newton_loop
 
 __all__ = ["RelaxOutput", "compiled_relax", "relax_seed"]
 
@@ -154,7 +154,7 @@ def relax_seed(
     settings : array
         Newton settings of the final KKT solve (:meth:`biplan.solvers.Newton.settings`).
     """
-    nq, ng, nc = sizes(layout)
+    _nq, _ng, _nc = sizes(layout)
     q_seed, seed_res = _seed(layout, p, target, mask)
     q, iterations = _descend(layout, p, q_seed, stiffness, max_iterations)
     lam = stiffness * guide_values(layout, p, q)
