@@ -11,6 +11,9 @@ paper's value). A claim whose input stage failed or did not run is reported as `
 the stage's error (:func:`assess`). :func:`report_markdown` renders the report, one table per
 figure, with links to the figure files.
 
+Slopes Θ and deflections u_r are compared by magnitude: the model's sign convention for θ
+and u_r (negative for the paper's positive bending) is a choice of axes, not physics.
+
 The results are plain numbers and arrays (the ``*Facts`` dataclasses and two map datasets) so
 that a claim can be checked against any input, including hand-made ones in the tests.
 """
@@ -496,8 +499,8 @@ def _shared_branch(r: Results) -> Finding:
             f"{' and '.join(missing)} not stable", grade([]), "the states to compare are missing"
         )
     checks = [
-        abs(s.Theta[i] - 2 / 3) < 0.1,
-        abs(s.Theta[j] - 2 / 3) < 0.1,
+        abs(abs(s.Theta[i]) - 2 / 3) < 0.1,
+        abs(abs(s.Theta[j]) - 2 / 3) < 0.1,
         s.n_open_circular[i] == s.n_open_circular[j] and abs(s.u_z[i] - s.u_z[j]) < 0.05,
         abs(s.u_r[j]) > abs(s.u_r[i]),
     ]
@@ -515,7 +518,7 @@ def _slope_peak(r: Results) -> Finding:
     assert s is not None
     if s.theta_counts.size == 0 or s.theta_counts.max() == 0:
         return Finding("no states", grade([]), "no slope distribution")
-    peak = float(s.theta_bins[int(np.argmax(s.theta_counts))])
+    peak = abs(float(s.theta_bins[int(np.argmax(s.theta_counts))]))
     return Finding(
         f"slope distribution peaks at Θ = {peak:.2f} "
         f"({int(s.theta_counts.max())} of {int(s.theta_counts.sum())} states)",
@@ -552,8 +555,8 @@ def _deflection_peaks(r: Results) -> Finding:
         return Finding("no states", grade([]), "no deflection distribution")
     width = float(np.median(np.diff(x))) if x.size > 1 else 1.0
     mode = float(x[int(np.argmax(c))])
-    in_band = (s.u_r >= 1 / 8) & (s.u_r <= 5 / 8)
-    bins_in = (x >= 1 / 8 - width / 2) & (x <= 5 / 8 + width / 2)
+    in_band = (np.abs(s.u_r) >= 1 / 8) & (np.abs(s.u_r) <= 5 / 8)
+    bins_in = (np.abs(x) >= 1 / 8 - width / 2) & (np.abs(x) <= 5 / 8 + width / 2)
     secondary = bool(in_band.any()) and _n_peaks(np.where(bins_in, c, 0)) >= 1
     checks = [abs(mode) <= max(width, 1 / 16), secondary]
     return Finding(
@@ -579,7 +582,7 @@ def _pathways(r: Results) -> Finding:
 def _hierarchy(r: Results) -> Finding:
     s = r.states
     assert s is not None
-    k, th = np.asarray(s.branches, dtype=float), np.asarray(s.branch_theta, dtype=float)
+    k, th = np.asarray(s.branches, dtype=float), np.abs(np.asarray(s.branch_theta, dtype=float))
     on_thirds = k.size > 1 and bool(np.all(np.abs(th[k > 0] - k[k > 0] / 3) < 0.1))
 
     def rising(y: np.ndarray) -> bool:
