@@ -14,10 +14,18 @@ stiff linear helical fold) share the compiled kernels.
 
 from __future__ import annotations
 
-import numpy as np
-import pytest
+import os
 
-import biplan  # enables JAX float64
+# No persistent JAX compilation cache in the test-suite: a CI machine starts cold anyway, and
+# jaxlib 0.10.2 crashed once (segmentation fault inside the cache's executable serialisation,
+# `put_executable_and_time`) while another process wrote the same cache. Set before biplan is
+# imported (biplan._jax reads it); child processes inherit it.
+os.environ.setdefault("BIPLAN_JAX_CACHE", "off")
+
+import numpy as np  # noqa: E402
+import pytest  # noqa: E402
+
+import biplan  # noqa: E402  (enables JAX float64)
 
 #: Geometry of the SI calibration table (MODEL.md §3, §14).
 GEOMETRY = {"radius": 2.0, "pitch": 3.6, "helical_angle": 60.0}
