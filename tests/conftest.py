@@ -22,10 +22,10 @@ import os
 # imported (biplan._jax reads it); child processes inherit it.
 os.environ.setdefault("BIPLAN_JAX_CACHE", "off")
 
-import numpy as np  # noqa: E402
-import pytest  # noqa: E402
+import numpy as np
+import pytest
 
-import biplan  # noqa: E402  (enables JAX float64)
+import biplan  # enables JAX float64
 
 #: Geometry of the SI calibration table (MODEL.md §3, §14).
 GEOMETRY = {"radius": 2.0, "pitch": 3.6, "helical_angle": 60.0}
