@@ -26,6 +26,7 @@ import numpy as np
 import pytest
 
 import biplan  # enables JAX float64
+from biplan._jax import release_compiled_kernels
 
 #: Geometry of the SI calibration table (MODEL.md §3, §14).
 GEOMETRY = {"radius": 2.0, "pitch": 3.6, "helical_angle": 60.0}
@@ -43,6 +44,19 @@ def make_tube(n_modules: int, helical=HELICAL, circular=CIRCULAR, base_fold: boo
         circular=circular,
         base_fold=base_fold,
     )
+
+
+@pytest.fixture(autouse=True)
+def _bounded_compiled_kernels():
+    """Keep the suite's process below Linux's memory-map cap (vm.max_map_count).
+
+    Each XLA:CPU executable holds ~3 mappings; the whole suite compiles well over 20,000
+    executables in one process (many layouts, eager finite-difference checks), which crashed
+    XLA's compiler with a segmentation fault once the cap was reached. Caches are cleared
+    between tests once half the cap is used (kernels then recompile on demand).
+    """
+    yield
+    release_compiled_kernels(0.5)
 
 
 @pytest.fixture

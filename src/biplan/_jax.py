@@ -46,4 +46,43 @@ if _cache.lower() not in {"", "0", "off", "none"}:
 
 import jax.numpy as jnp  # noqa: E402
 
-__all__ = ["jax", "jnp"]
+__all__ = ["jax", "jnp", "memory_map_count", "release_compiled_kernels"]
+
+
+def memory_map_count() -> int:
+    """Number of memory mappings of this process (``/proc/self/maps``; 0 where unavailable).
+
+    Every executable that XLA:CPU compiles keeps about three mappings (code, constants, data)
+    until JAX's caches drop it, and Linux caps a process at ``vm.max_map_count`` mappings
+    (65,530 by default). A process that compiles ~20,000 executables — many tube layouts,
+    or long eager (op-by-op) computations over many array shapes — then crashes with a
+    segmentation fault inside XLA's compiler. :func:`release_compiled_kernels` prevents it.
+    """
+    try:
+        with open("/proc/self/maps", "rb") as f:
+            return sum(1 for _ in f)
+    except OSError:
+        return 0
+
+
+def _map_limit() -> int:
+    try:
+        return int(Path("/proc/sys/vm/max_map_count").read_text())
+    except (OSError, ValueError):
+        return 65530
+
+
+def release_compiled_kernels(fraction: float = 0.5) -> bool:
+    """Drop every compiled JAX executable if this process uses over ``fraction`` of its maps.
+
+    Kernels compile again on their next call (seconds to minutes), so call this between
+    independent pieces of work in long-running processes (test-suites, notebooks that build
+    many layouts), not inside loops. Returns whether the caches were cleared.
+    """
+    if memory_map_count() <= fraction * _map_limit():
+        return False
+    import gc
+
+    jax.clear_caches()
+    gc.collect()
+    return True

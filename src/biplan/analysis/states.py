@@ -148,9 +148,18 @@ def _seed_targets(
 
 
 def relax_seeds(
-    model: Model, target: np.ndarray, mask: np.ndarray, settings: Enumeration
+    model: Model,
+    target: np.ndarray,
+    mask: np.ndarray,
+    settings: Enumeration,
+    progress: Callable[[int, int], None] | None = None,
 ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """Batched relaxation of seeds (rows of ``target``/``mask``): (z, status, residual)."""
+    """Batched relaxation of seeds (rows of ``target``/``mask``): (z, status, residual).
+
+    Seeds go through the compiled kernel in fixed chunks of ``settings.chunk`` (the last one
+    padded), so every chunk reuses one compilation; ``progress(done, total)`` is called after
+    each chunk.
+    """
     fn = compiled_relax(model.layout)
     stiffness = jnp.asarray(float(settings.penalty_stiffness))
     iterations = jnp.asarray(settings.max_iterations)
@@ -166,6 +175,8 @@ def relax_seeds(
         zs.append(np.asarray(out.z)[: hi - lo])
         status.append(np.asarray(out.status)[: hi - lo])
         residual.append(np.asarray(out.residual)[: hi - lo])
+        if progress is not None:
+            progress(hi, k)
     return np.concatenate(zs), np.concatenate(status), np.concatenate(residual)
 
 
@@ -198,16 +209,7 @@ def enumerate_states(
         raise ConfigError("model", f"{len(folds)} bistable folds", f"at most {MAX_FOLDS}")
     start = time.perf_counter()
     seeds, target, mask = _seed_targets(model, folds)
-    z_parts, st_parts, res_parts = [], [], []
-    for lo in range(0, len(seeds), settings.chunk):
-        hi = min(lo + settings.chunk, len(seeds))
-        z, st, res = relax_seeds(model, target[lo:hi], mask[lo:hi], settings)
-        z_parts.append(z)
-        st_parts.append(st)
-        res_parts.append(res)
-        if progress is not None:
-            progress(hi, len(seeds))
-    z, status, residual = (np.concatenate(v) for v in (z_parts, st_parts, res_parts))
+    z, status, residual = relax_seeds(model, target, mask, settings, progress)
     n = len(z)
     zeros = np.zeros(n)
     obs = observe_batch(model.layout, model.params, z, Load(zeros, zeros, zeros))

@@ -1,0 +1,31 @@
+"""JAX set-up: float64, XLA flags, and release of compiled executables (memory-map cap)."""
+
+from __future__ import annotations
+
+import os
+import sys
+
+import pytest
+
+from biplan._jax import jax, jnp, memory_map_count, release_compiled_kernels
+
+
+def test_float64_is_on():
+    assert jnp.ones(2).dtype == jnp.float64
+
+
+def test_xla_flags_disable_the_ynn_fusion():
+    assert "--xla_cpu_experimental_ynn_fusion_type=" in os.environ["XLA_FLAGS"]
+
+
+@pytest.mark.skipif(not sys.platform.startswith("linux"), reason="/proc/self/maps is Linux")
+def test_release_compiled_kernels_frees_memory_maps():
+    functions = [jax.jit(lambda x, k=k: jnp.sin(x) * k + x**2) for k in range(100)]
+    for f in functions:
+        f(jnp.ones(3)).block_until_ready()
+    before = memory_map_count()
+    assert release_compiled_kernels(fraction=1.0) is False  # far below the cap: nothing done
+    assert release_compiled_kernels(fraction=0.0) is True
+    after = memory_map_count()
+    assert after < before - 200  # ~3 mappings per executable released
+    assert float(functions[0](jnp.ones(3))[0]) == pytest.approx(1.0)  # recompiles on demand
