@@ -15,12 +15,15 @@ stiff linear helical fold) share the compiled kernels.
 from __future__ import annotations
 
 import os
+from pathlib import Path
 
-# No persistent JAX compilation cache in the test-suite: a CI machine starts cold anyway, and
-# jaxlib 0.10.2 crashed once (segmentation fault inside the cache's executable serialisation,
-# `put_executable_and_time`) while another process wrote the same cache. Set before biplan is
-# imported (biplan._jax reads it); child processes inherit it.
-os.environ.setdefault("BIPLAN_JAX_CACHE", "off")
+# The suite shares one persistent JAX compilation cache between its processes (pytest-xdist
+# workers, the CLI child processes of the reproduce test): a kernel compiled by one is loaded by
+# the others. It lives in the checkout (git-ignored), and starts empty on a clean clone. Set
+# before biplan is imported (biplan._jax reads it); child processes inherit it.
+os.environ.setdefault(
+    "BIPLAN_JAX_CACHE", str(Path(__file__).resolve().parent.parent / ".jax-cache-tests")
+)
 
 import numpy as np
 import pytest

@@ -3,7 +3,8 @@
 Importing this module enables ``jax_enable_x64`` (all energies are float64) and points JAX's
 persistent compilation cache at ``$BIPLAN_JAX_CACHE`` (default ``~/.cache/biplan/jax``) so
 that kernels compiled in one process are reused by the next (cold-start time is user time).
-Set ``BIPLAN_JAX_CACHE=off`` to disable the cache.
+Set ``BIPLAN_JAX_CACHE=off`` to disable the cache. Reads and writes of the cache are file-locked
+(``filelock``), so processes running at once (Dask workers, test workers) can share it.
 
 It also adds ``--xla_cpu_multi_thread_eigen=false`` to ``XLA_FLAGS`` (unless the user set that
 flag): with JAX 0.10 on CPU, large ``vmap``-ped kernels with nested ``while`` loops (the batched
@@ -41,6 +42,10 @@ if _cache.lower() not in {"", "0", "off", "none"}:
         jax.config.update("jax_compilation_cache_dir", _cache)
         jax.config.update("jax_persistent_cache_min_compile_time_secs", 0.1)
         jax.config.update("jax_persistent_cache_min_entry_size_bytes", 0)
+        # A size limit turns on JAX's file lock around every cache read and write (without it
+        # a process can read an entry that another — a Dask worker, a test worker — is still
+        # writing). 8 GiB: far above what biplan's kernels need, least recently used evicted.
+        jax.config.update("jax_compilation_cache_max_size", 8 * 2**30)
     except OSError:  # read-only home: run without the persistent cache
         pass
 
