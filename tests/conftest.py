@@ -89,6 +89,12 @@ def model4() -> biplan.Model:
 
 
 @pytest.fixture(scope="session")
+def model4_element() -> biplan.Model:
+    """The fully bistable design under the paper's chain (R3 ``element``, H^TPC = I)."""
+    return biplan.Model(biplan.designs.fully_bistable(biplan.ModelOptions()))
+
+
+@pytest.fixture(scope="session")
 def reference6(model6) -> biplan.Solution:
     return biplan.relaxed_reference(model6)
 

@@ -87,7 +87,7 @@ def test_project_metadata_agrees() -> None:
     citation = yaml.safe_load((ROOT / "CITATION.cff").read_text(encoding="utf-8"))
     assert citation["cff-version"] == "1.2.0"
     assert str(citation["version"]) == project["version"]
-    assert citation["license"] == project["license"]["text"] == "MIT"
+    assert citation["license"] == project["license"] == "MIT"
     assert citation["preferred-citation"]["authors"], "the paper's authors"
     assert (ROOT / "LICENSE").read_text(encoding="utf-8").startswith("MIT License")
     changelog = (ROOT / "CHANGELOG.md").read_text(encoding="utf-8")

@@ -14,6 +14,8 @@ import pytest
 from scipy.optimize import brentq, minimize_scalar
 
 import biplan
+from biplan.geometry.chain import _edge_fit
+from biplan.options import ChainAttachment
 from conftest import GEOMETRY, make_tube, random_configuration
 
 DEV = biplan.Development(**GEOMETRY)
@@ -292,11 +294,12 @@ def test_base_gamma_translates_the_whole_tube(model6, rng):
     np.testing.assert_allclose(model6.load_gradient(q2), model6.load_gradient(q), atol=1e-12)
 
 
-@pytest.mark.parametrize("name", ["model6", "model4"])
+@pytest.mark.parametrize("name", ["model6", "model4_element", "model4"])
 def test_gamma_translates_the_upper_tube_along_the_attachment_axis(name, request, rng):
     """Opening connector j by c moves every module above it rigidly by c along the axis of the
-    attachment frame (SPC: the lower S element-1 frame; TPC: the lower module frame) and leaves
-    the modules below in place (MODEL.md §9, CHOICE R1 exact)."""
+    attachment frame (SPC: the lower S element-1 frame; TPC: the lower module frame; R3
+    edge_fit: the frame of the lower module's fitted top edge) and leaves the modules below in
+    place (MODEL.md §9, CHOICE R1 exact)."""
     m = request.getfixturevalue(name)
     n = m.layout.n_modules
     q = random_configuration(m, rng, amplitude=0.03, gamma=(0.2, 0.6))
@@ -308,6 +311,12 @@ def test_gamma_translates_the_upper_tube_along_the_attachment_axis(name, request
         before, after = m.global_nodes(q), m.global_nodes(q2)
         if spec.lower is None:
             axis = np.array([1.0, 0.0])
+        elif m.layout.options.chain_attachment is ChainAttachment.EDGE_FIT:
+            local = m.kinematics(q)
+            fit = _edge_fit(
+                local.local_nodes[spec.lower], local.reference[spec.lower], spec.lower_edge.segments
+            )
+            axis = (frames[spec.lower] @ np.asarray(fit))[:2, :2] @ np.array([1.0, 0.0])
         else:
             rot = frames[spec.lower][:2, :2]
             if spec.kind == "SPC":
@@ -323,7 +332,7 @@ def _line_value(p0, p1, s):
     return p0[0] + (p1[0] - p0[0]) * (s - p0[1]) / (p1[1] - p0[1])
 
 
-@pytest.mark.parametrize("name", ["model2", "model6", "model4"])
+@pytest.mark.parametrize("name", ["model2", "model6", "model4_element"])
 def test_connector_fields_match_the_global_geometry(name, request, rng):
     """Each connector field endpoint equals the axial gap, in the attachment frame, between
     the lower module's top edge and the upper module's bottom edge taken from the global
