@@ -29,3 +29,14 @@ def test_release_compiled_kernels_frees_memory_maps():
     after = memory_map_count()
     assert after < before - 200  # ~3 mappings per executable released
     assert float(functions[0](jnp.ones(3))[0]) == pytest.approx(1.0)  # recompiles on demand
+
+
+def test_cache_entries_without_access_time_are_stamped(tmp_path):
+    from biplan._jax import _stamp_unlocked_entries
+
+    (tmp_path / "jit_f-abc-cache").write_bytes(b"executable")
+    (tmp_path / "jit_g-def-cache").write_bytes(b"executable")
+    (tmp_path / "jit_g-def-atime").write_bytes((7).to_bytes(8, "little"))
+    _stamp_unlocked_entries(tmp_path)
+    assert len((tmp_path / "jit_f-abc-atime").read_bytes()) == 8  # JAX's LRU reads 8 bytes
+    assert (tmp_path / "jit_g-def-atime").read_bytes() == (7).to_bytes(8, "little")  # kept

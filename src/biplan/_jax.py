@@ -35,6 +35,21 @@ import jax  # noqa: E402
 
 jax.config.update("jax_enable_x64", True)
 
+def _stamp_unlocked_entries(path: Path) -> None:
+    """Give entries written without the size limit (no ``-atime`` file) an access time.
+
+    With the limit on, JAX reads every entry's ``-atime`` file before each write; one missing
+    (a cache filled by an older biplan) makes every write fail with a warning.
+    """
+    import time
+
+    stamp = time.time_ns().to_bytes(8, "little")
+    for entry in path.glob("*-cache"):
+        atime = entry.with_name(entry.name.removesuffix("-cache") + "-atime")
+        if not atime.exists():
+            atime.write_bytes(stamp)
+
+
 _cache = os.environ.get("BIPLAN_JAX_CACHE", str(Path.home() / ".cache" / "biplan" / "jax"))
 if _cache.lower() not in {"", "0", "off", "none"}:
     try:
@@ -46,6 +61,7 @@ if _cache.lower() not in {"", "0", "off", "none"}:
         # a process can read an entry that another — a Dask worker, a test worker — is still
         # writing). 8 GiB: far above what biplan's kernels need, least recently used evicted.
         jax.config.update("jax_compilation_cache_max_size", 8 * 2**30)
+        _stamp_unlocked_entries(Path(_cache))
     except OSError:  # read-only home: run without the persistent cache
         pass
 
