@@ -35,6 +35,7 @@ import jax  # noqa: E402
 
 jax.config.update("jax_enable_x64", True)
 
+
 def _stamp_unlocked_entries(path: Path) -> None:
     """Give entries written without the size limit (no ``-atime`` file) an access time.
 
