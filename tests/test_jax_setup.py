@@ -40,3 +40,10 @@ def test_cache_entries_without_access_time_are_stamped(tmp_path):
     _stamp_unlocked_entries(tmp_path)
     assert len((tmp_path / "jit_f-abc-atime").read_bytes()) == 8  # JAX's LRU reads 8 bytes
     assert (tmp_path / "jit_g-def-atime").read_bytes() == (7).to_bytes(8, "little")  # kept
+
+
+def test_release_fraction_is_validated():
+    from biplan import ConfigError
+
+    with pytest.raises(ConfigError, match=r"fraction.*\[0\.0, 1\.0\]"):
+        release_compiled_kernels(fraction=1.5)

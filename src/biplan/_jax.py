@@ -101,6 +101,9 @@ def release_compiled_kernels(fraction: float = 0.5) -> bool:
     independent pieces of work in long-running processes (test-suites, notebooks that build
     many layouts), not inside loops. Returns whether the caches were cleared.
     """
+    from biplan._errors import check_range
+
+    fraction = check_range("fraction", fraction, low=0.0, high=1.0, low_open=False, high_open=False)
     if memory_map_count() <= fraction * _map_limit():
         return False
     import gc
