@@ -1,7 +1,7 @@
 """Design- and stability-map timings: batched sweeps, the scalar loop, Dask scale-out.
 
 Run:  .venv/bin/python benchmarks/bench_maps.py [--design 50] [--stability 40] [--dask 12]
-      [--chunk-size 32] [--baseline 6] [--skip-dask]
+      [--chunk-size 16] [--baseline 6] [--skip-dask]
 
 In one process, for the semi-bistable paper design (6 modules):
 
@@ -54,7 +54,7 @@ def main() -> None:
     ap.add_argument("--design", type=int, default=50, help="design grid n (n × n)")
     ap.add_argument("--stability", type=int, default=40, help="stability grid n (n × n)")
     ap.add_argument("--dask", type=int, default=12, help="Dask comparison grid n (n × n)")
-    ap.add_argument("--chunk-size", type=int, default=32, help="points per chunk/batch")
+    ap.add_argument("--chunk-size", type=int, default=16, help="points per chunk/batch")
     ap.add_argument("--baseline", type=int, default=6, help="points of the scalar loop")
     ap.add_argument("--skip-dask", action="store_true")
     args = ap.parse_args()

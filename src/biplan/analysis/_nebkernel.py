@@ -26,6 +26,7 @@ from __future__ import annotations
 import functools
 from typing import Any, NamedTuple
 
+from biplan import _linalg as linalg
 from biplan._jax import jax, jnp
 from biplan.assembly import ModelParams, TubeLayout, contact_gaps, energy, guide_values, sizes
 
@@ -58,7 +59,7 @@ def _constraints(layout: TubeLayout, p: ModelParams, q: Array) -> Array:
 
 def _lstsq(a: Array, b: Array) -> Array:
     """Minimum-norm least-squares x of aᵀx ≈ b (rows of a may be zero)."""
-    return jnp.linalg.pinv(a.T, rtol=1e-10) @ b
+    return linalg.pinv(a.T, rtol=1e-10) @ b
 
 
 def image_gradient(
@@ -89,7 +90,7 @@ def image_gradient(
 
 def _project_direction(rows: Array, v: Array) -> Array:
     """v minus its component in the row space of the active constraint rows."""
-    return v - jnp.linalg.pinv(rows, rtol=1e-10) @ (rows @ v)
+    return v - linalg.pinv(rows, rtol=1e-10) @ (rows @ v)
 
 
 def project(layout: TubeLayout, p: ModelParams, q: Array) -> Array:
@@ -103,7 +104,7 @@ def project(layout: TubeLayout, p: ModelParams, q: Array) -> Array:
     def body(_: int, x: Array) -> Array:
         r = res(x)
         jac = jax.jacfwd(res)(x)
-        step = -jnp.linalg.pinv(jac, rtol=1e-10) @ r
+        step = -linalg.pinv(jac, rtol=1e-10) @ r
         new = x + step
         return jnp.where(jnp.all(jnp.isfinite(new)), new, x)
 

@@ -31,12 +31,22 @@ from typing import Any
 
 import numpy as np
 
+from biplan import _linalg as linalg
 from biplan._errors import ConfigError, check_range
 from biplan._jax import jax, jnp
-from biplan.assembly import Load, Model, TubeLayout
-from biplan.geometry import Tube
+from biplan.assembly import (
+    Load,
+    Model,
+    TubeLayout,
+    contact_gaps,
+    kernels,
+    kkt_jacobian,
+    load_height,
+    residual,
+)
+from biplan.geometry import Tube, chain
 from biplan.solvers.newton import Newton, Status, newton_loop, solve_equilibrium
-from biplan.solvers.observe import observe, observe_batch
+from biplan.solvers.observe import kkt_min_eigenvalue, observe_batch
 
 __all__ = ["ForceRamp", "ResponseEvaluator", "response_point", "stack_params"]
 
@@ -100,20 +110,59 @@ class ForceRamp:
         return Newton(atol=self.atol, max_steps=self.max_steps, max_backtracks=self.max_backtracks)
 
 
+#: Chord iterations (the previous equilibrium's Jacobian, residuals only) before Newton.
+CHORD_ITERATIONS = 3
+
+
+def _chord(layout: TubeLayout, p: Any, z: Array, jac: Array, load: Load) -> Array:
+    """Chord (modified Newton) iterates z ← z − J⁻¹ r(z) with a fixed Jacobian; returns the
+    iterate of smallest ‖r‖∞ (z itself when every step made it worse or non-finite)."""
+
+    def step(_: int, c: tuple) -> tuple:
+        zc, best, best_norm = c
+        r = residual(layout, p, zc, load)
+        norm = jnp.where(jnp.all(jnp.isfinite(r)), jnp.max(jnp.abs(r)), jnp.inf)
+        take = norm < best_norm
+        best = jnp.where(take, zc, best)
+        best_norm = jnp.where(take, norm, best_norm)
+        dz = linalg.solve(jac, -r)
+        return jnp.where(jnp.all(jnp.isfinite(dz)), zc + dz, zc), best, best_norm
+
+    zc, best, best_norm = jax.lax.fori_loop(0, CHORD_ITERATIONS, step, (z, z, jnp.asarray(jnp.inf)))
+    r = residual(layout, p, zc, load)
+    norm = jnp.where(jnp.all(jnp.isfinite(r)), jnp.max(jnp.abs(r)), jnp.inf)
+    return jnp.where(norm < best_norm, zc, best)
+
+
 def _path(layout: TubeLayout, p: Any, z0: Array, forces: Array, settings: Array) -> tuple:
-    """Load stepping through ``forces`` from z0 (pure; vmapped over designs)."""
+    """Load stepping through ``forces`` from z0 (pure; vmapped over designs).
+
+    Each step starts with :data:`CHORD_ITERATIONS` chord iterations at the new load with the
+    KKT Jacobian of the previous equilibrium (cheap: residuals and solves only) and is
+    finished by the globalised :func:`newton_loop`, whose first pass also evaluates the
+    Jacobian at the converged state. Stability is read from that Jacobian
+    (:func:`kkt_min_eigenvalue`), so no second Hessian is evaluated per step.
+    """
+    zero = jnp.asarray(0.0)
+    weak = layout.options.weak_contacts_active
+    nq = layout.n_coordinates
 
     def body(carry: tuple, f: Array) -> tuple:
-        z, alive = carry
-        load = Load(f, jnp.asarray(0.0), jnp.asarray(0.0))
-        out = newton_loop(layout, p, z, load, settings)
+        z, jac, alive = carry
+        load = Load(f, zero, zero)
+        out = newton_loop(layout, p, _chord(layout, p, z, jac, load), load, settings)
         ok = alive & (out.status == Status.CONVERGED.value) & jnp.all(jnp.isfinite(out.z))
-        ob = observe(layout, p, out.z, load, layout.options.weak_contacts_active)
-        z_next = jnp.where(ok, out.z, z)
+        q = out.z[:nq]
+        end = chain.endpoint(layout, p.geometry, q)
+        lam = kkt_min_eigenvalue(layout, out.z, out.jac, contact_gaps(layout, p, q), load, weak)
         first_bad = jnp.where(alive & ~ok, out.status, -1)
-        return (z_next, ok), (ok, first_bad, ob.u_z, ob.u_r, ob.displacement, ob.min_eigenvalue)
+        z_next = jnp.where(ok, out.z, z)
+        jac_next = jnp.where(ok, out.jac, jac)
+        rec = (ok, first_bad, end.u_z, end.u_r, load_height(layout, p, q), lam)
+        return (z_next, jac_next, ok), rec
 
-    carry, outs = jax.lax.scan(body, (z0, jnp.asarray(True)), forces)  # type: ignore[var-annotated]
+    jac0 = kkt_jacobian(layout, p, z0, Load(forces[0], zero, zero))
+    carry, outs = jax.lax.scan(body, (z0, jac0, jnp.asarray(True)), forces)  # type: ignore[var-annotated]
     return carry[0], outs
 
 
@@ -237,9 +286,32 @@ class ResponseEvaluator:
         return out
 
 
+def _chord_scalar(kk: Any, params: Any, z: np.ndarray, jac: np.ndarray, load: Load) -> np.ndarray:
+    """NumPy twin of :func:`_chord`."""
+
+    def norm_of(zc: np.ndarray) -> tuple[np.ndarray, float]:
+        r = np.asarray(kk.residual(params, zc, load))
+        return r, float(np.max(np.abs(r))) if np.all(np.isfinite(r)) else np.inf
+
+    zc, best, best_norm = z, z, np.inf
+    for _ in range(CHORD_ITERATIONS):
+        r, norm = norm_of(zc)
+        if norm < best_norm:
+            best, best_norm = zc, norm
+        with np.errstate(all="ignore"):
+            try:
+                dz = np.linalg.solve(jac, -r)
+            except np.linalg.LinAlgError:
+                dz = np.full_like(r, np.nan)
+        zc = zc + dz if np.all(np.isfinite(dz)) else zc
+    return zc if norm_of(zc)[1] < best_norm else best
+
+
 def response_point(tube: Tube, ramp: ForceRamp | None = None) -> dict[str, float]:
-    """Scalar reference of :class:`ResponseEvaluator` for one design: one Newton solve per
-    load step (``solve_equilibrium``), observed with ``observe_batch``.
+    """Scalar reference of :class:`ResponseEvaluator` for one design: the same chord iterations
+    and one Newton solve per load step (``solve_equilibrium``), observed with
+    ``observe_batch`` (which evaluates the Hessian afresh, an independent check of the
+    Jacobian-block stability test of the batched kernel).
 
     Returns
     -------
@@ -249,17 +321,23 @@ def response_point(tube: Tube, ramp: ForceRamp | None = None) -> dict[str, float
     ramp = ramp or ForceRamp()
     model = Model(tube)
     solver = ramp.newton()
-    z = model.pack(model.zeros())
+    kk = kernels(model.layout)
+    params = model.params
+    z = np.asarray(model.pack(model.zeros()))
+    jac = np.asarray(kk.jacobian(params, z, Load.of_force(float(ramp.forces[0]))))
     ok, first_bad, zs = [], [], []
     alive = True
     for f in ramp.forces:
-        sol = solve_equilibrium(model, solver, z, Load.of_force(float(f)))
+        load = Load.of_force(float(f))
+        start = _chord_scalar(kk, params, z, jac, load)
+        sol = solve_equilibrium(model, solver, start, load)
         good = alive and sol.converged and bool(np.all(np.isfinite(sol.z)))
         first_bad.append(sol.status.value if alive and not good else -1)
         ok.append(good)
         zs.append(sol.z if good else z)
         if good:
-            z = sol.z
+            z = np.asarray(sol.z)
+            jac = np.asarray(kk.jacobian(params, z, load))
         alive = good
     forces = ramp.forces
     obs = observe_batch(model.layout, model.params, np.asarray(zs), Load(forces, 0.0 * forces, 0.0))

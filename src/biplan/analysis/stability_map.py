@@ -6,7 +6,7 @@ default C at b = 0.58) the distinct equilibria are searched for and classified:
 1. **Seeds.** Newton (displacement control, U = value · l₀ [mm]) from a fixed set of starts:
    all folds closed, the displacement shared by all circular folds, put on a single circular
    fold (one seed per fold), and shared by the k lowest and by the k highest folds
-   (2 ≤ k < N_c): 4 N_c − 2 seeds, 22 for the semi-bistable design.
+   (2 ≤ k < N_c): 3 N_c − 2 seeds, 16 for the semi-bistable design.
 2. **Continuation from neighbours.** The stable equilibria found at the neighbouring
    displacements of the same design (previous and next point of the chunk along the last grid
    axis) are used as further seeds at this point.
@@ -20,8 +20,10 @@ default C at b = 0.58) the distinct equilibria are searched for and classified:
    more than once (neighbouring points alternate), up to the point from which the final
    regime holds.
 
-All solves of a chunk, (points × seeds), run in one ``vmap``-ped kernel per layout with a fixed
-batch shape. Neighbour continuation stays inside a chunk, so rows should not straddle chunks
+All solves of a chunk, (points × seeds), run as one task queue on a lane-refilling Newton pool
+(:func:`biplan.solvers.pool.newton_pool`, ``solve_batch`` lanes, one compiled kernel per layout
+and chunk size): a lane whose seed has converged or failed takes the next seed, so a slow seed
+no longer holds up a whole batch. Neighbour continuation stays inside a chunk, so rows should not straddle chunks
 (:func:`stability_map` sizes the chunks to whole rows).
 """
 
@@ -38,8 +40,9 @@ from biplan._errors import ConfigError, check_range
 from biplan._jax import jax, jnp
 from biplan.assembly import Load, Model, TubeLayout
 from biplan.geometry import Tube
-from biplan.solvers.newton import Newton, Status, newton_loop
+from biplan.solvers.newton import Newton, Status
 from biplan.solvers.observe import STABILITY_TOL, observe
+from biplan.solvers.pool import pool_kernel
 
 __all__ = ["StabilityEvaluator", "StabilitySearch", "transition_band"]
 
@@ -65,20 +68,20 @@ class StabilitySearch:
     max_steps : int
         Newton iterations per seed.
     max_backtracks : int
-        Line-search halvings per Newton step. The batched Newton loop runs in lock-step until
-        every seed of the batch has finished (at most max_steps · (max_backtracks + 1) trial
-        evaluations), so seeds that fail must fail fast.
+        Line-search halvings per Newton step. A seed costs at most
+        max_steps · (max_backtracks + 1) residual evaluations; most converge in 6–8, the rest
+        are seeds far from any equilibrium, which should fail fast.
     solve_batch : int
-        Solves per compiled call (fixed shape), ≥ 1. Kept small: on the CPU backend of JAX 0.10
-        a 64-wide batch of this kernel hung in the runtime (no CPU use) on the project machine.
+        Lanes of the solve pool (:func:`biplan.solvers.pool.newton_pool`: solves in flight,
+        a finished lane takes the next seed), ≥ 1.
     """
 
     max_equilibria: int = 8
     distinct_tol: float = 1e-4
     atol: float = 1e-9
-    max_steps: int = 25
-    max_backtracks: int = 6
-    solve_batch: int = 8
+    max_steps: int = 15
+    max_backtracks: int = 4
+    solve_batch: int = 16
 
     def __post_init__(self) -> None:
         for name in ("max_equilibria", "solve_batch", "max_steps", "max_backtracks"):
@@ -92,17 +95,15 @@ class StabilitySearch:
         return Newton(atol=self.atol, max_steps=self.max_steps, max_backtracks=self.max_backtracks)
 
 
-def _solve(layout: TubeLayout, p: Any, z0: Array, u: Array, settings: Array) -> tuple:
+def _observe(layout: TubeLayout, p: Any, z: Array, u: Array) -> tuple:
     load = Load(jnp.asarray(0.0), u, jnp.asarray(1.0))
-    out = newton_loop(layout, p, z0, load, settings)
-    ob = observe(layout, p, out.z, load, layout.options.weak_contacts_active)
-    ok = (out.status == Status.CONVERGED.value) & jnp.all(jnp.isfinite(out.z))
-    return out.z, ok, ob.energy, ob.min_eigenvalue, ob.u_z, ob.u_r, ob.force
+    ob = observe(layout, p, z, load, layout.options.weak_contacts_active)
+    return ob.energy, ob.min_eigenvalue, ob.u_z, ob.u_r, ob.force
 
 
 @functools.lru_cache(maxsize=16)
-def _kernel(layout: TubeLayout) -> Any:
-    return jax.jit(jax.vmap(functools.partial(_solve, layout), in_axes=(0, 0, 0, None)))
+def _observe_kernel(layout: TubeLayout) -> Any:
+    return jax.jit(jax.vmap(functools.partial(_observe, layout)))
 
 
 def seeds(model: Model, u: float) -> np.ndarray:
@@ -184,20 +185,41 @@ class StabilityEvaluator:
         return ds
 
     def _solve_all(
-        self, layout: TubeLayout, params: Any, rows: np.ndarray, z0: np.ndarray, u: np.ndarray
+        self,
+        layout: TubeLayout,
+        params: Any,
+        rows: np.ndarray,
+        z0: np.ndarray,
+        u: np.ndarray,
+        capacity: int,
     ) -> list[np.ndarray]:
-        """Solve every (point row, seed) pair in fixed-size batches."""
-        k = self.search.solve_batch
-        settings = self.search.newton().settings()
-        fn = _kernel(layout)
-        parts: list[list[np.ndarray]] = []
-        for lo in range(0, len(rows), k):
-            idx = np.arange(lo, min(lo + k, len(rows)))
-            pad = np.r_[idx, np.full(k - idx.size, idx[-1])]
-            p = jax.tree_util.tree_map(lambda a, r=rows[pad]: a[r], params)
-            out = fn(p, jnp.asarray(z0[pad]), jnp.asarray(u[pad]), settings)
-            parts.append([np.asarray(o)[: idx.size] for o in out])
-        return [np.concatenate(c, axis=0) for c in zip(*parts, strict=True)]
+        """Solve every (point row, seed) task on a lane-refilling pool
+        (:func:`biplan.solvers.pool.newton_pool`), then observe the converged ones."""
+        lanes = self.search.solve_batch
+        n = len(rows)
+        cap = max(capacity, n)
+        pad = cap - n
+        point = np.r_[rows, np.zeros(pad, dtype=int)].astype(np.int32)
+        zz = np.concatenate([z0, np.repeat(z0[-1:], pad, axis=0)])
+        uu = np.r_[u, np.zeros(pad)]
+        loads = Load(jnp.zeros(cap), jnp.asarray(uu), jnp.ones(cap))
+        res = pool_kernel(layout, lanes)(
+            params, jnp.asarray(point), jnp.asarray(zz), loads, jnp.asarray(n),
+            self.search.newton().settings(),
+        )  # fmt: skip
+        z = np.asarray(res.z)[:n]
+        ok = (np.asarray(res.status)[:n] == Status.CONVERGED.value) & np.all(np.isfinite(z), 1)
+        obs = [np.full(n, np.nan) for _ in range(5)]
+        idx = np.flatnonzero(ok)
+        fn = _observe_kernel(layout)
+        for lo in range(0, idx.size, lanes):
+            part = idx[lo : lo + lanes]
+            full = np.r_[part, np.full(lanes - part.size, part[-1])]
+            p = jax.tree_util.tree_map(lambda a, r=rows[full]: a[r], params)
+            out = fn(p, jnp.asarray(z[full]), jnp.asarray(u[full]))
+            for o, v in zip(obs, out, strict=True):
+                o[part] = np.asarray(v)[: part.size]
+        return [z, ok, *obs]
 
     def evaluate(
         self, tubes: Sequence[Tube], loads: Sequence[Mapping[str, float]], batch: int
@@ -220,9 +242,12 @@ class StabilityEvaluator:
             groups.setdefault(t.layout, []).append(i)
         for layout, which in groups.items():
             models = [Model(t) for t in (tubes[i] for i in which)]
+            padded = [m.params for m in models] + [models[-1].params] * (batch - len(models))
             params = jax.tree_util.tree_map(
-                lambda *a: jnp.stack([jnp.asarray(x) for x in a]), *[m.params for m in models]
+                lambda *a: jnp.stack([jnp.asarray(x) for x in a]), *padded
             )
+            n_seeds = len(seeds(models[0], 0.0))
+            capacity = max(batch, len(models)) * max(n_seeds, 2 * self.search.max_equilibria)
             u = [float(loads[i]["displacement"]) * tubes[i].initial_length for i in which]
             nq = models[0].n_coordinates
             # pass 1: fixed seeds
@@ -233,7 +258,7 @@ class StabilityEvaluator:
                 z0.append(s)
                 uu += [u[j]] * len(s)
             sols = self._solve_all(
-                layout, params, np.asarray(rows), np.concatenate(z0), np.asarray(uu)
+                layout, params, np.asarray(rows), np.concatenate(z0), np.asarray(uu), capacity
             )
             found = self._collect(np.asarray(rows), sols, len(models), nq)
             # pass 2: continuation from the neighbours along the last axis (same design)
@@ -247,7 +272,9 @@ class StabilityEvaluator:
                             uu2.append(u[j])
             if rows2:
                 r2 = np.asarray(rows2)
-                sols2 = self._solve_all(layout, params, r2, np.asarray(z02), np.asarray(uu2))
+                sols2 = self._solve_all(
+                    layout, params, r2, np.asarray(z02), np.asarray(uu2), capacity
+                )
                 rows_all = np.r_[np.asarray(rows), r2]
                 sols = [np.concatenate([a, b], axis=0) for a, b in zip(sols, sols2, strict=True)]
                 found = self._collect(rows_all, sols, len(models), nq)

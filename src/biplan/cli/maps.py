@@ -127,7 +127,7 @@ def design(
     rate: Annotated[float, typer.Option(help="Force rate Ḟ [N/s].")] = 0.8,
     duration: Annotated[float, typer.Option(help="Ramp duration [s].")] = 2.0,
     steps: Annotated[int, typer.Option(help="Load steps on the ramp.")] = 16,
-    chunk_size: _Chunk = 32,
+    chunk_size: _Chunk = 16,
     workers: _Workers = 1,
     scheduler: _Scheduler = None,
     resume: _Resume = False,

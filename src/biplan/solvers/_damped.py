@@ -11,6 +11,7 @@ from __future__ import annotations
 from collections.abc import Callable
 from typing import Any, NamedTuple
 
+from biplan import _linalg as linalg
 from biplan._jax import jax, jnp
 
 Array = Any
@@ -38,7 +39,7 @@ def damped_newton(
 
     def direction(x: Array, r: Array) -> tuple[Array, Array]:
         jac = jacobian(x)
-        d = jnp.linalg.solve(jac, -r)
+        d = linalg.solve(jac, -r)
         return jnp.where(jnp.isfinite(d), d, 0.0), jac
 
     r0 = residual(x0)

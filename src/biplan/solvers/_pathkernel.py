@@ -21,6 +21,7 @@ from __future__ import annotations
 import functools
 from typing import Any, NamedTuple
 
+from biplan import _linalg as linalg
 from biplan._jax import jax, jnp
 from biplan.assembly import Load, ModelParams, TubeLayout, kkt_jacobian, residual, sizes
 from biplan.solvers._damped import damped_newton
@@ -53,7 +54,7 @@ def _blocks(layout: TubeLayout, p: ModelParams, z: Array, lam: Array, ctl: Array
 def _bordered_solve(jac: Array, r_lam: Array, row_z: Array, row_l: Array, rhs: Array) -> Array:
     top = jnp.concatenate([jac, r_lam[:, None]], axis=1)
     bottom = jnp.concatenate([row_z, row_l[None]])[None, :]
-    return jnp.linalg.solve(jnp.concatenate([top, bottom], axis=0), rhs)
+    return linalg.solve(jnp.concatenate([top, bottom], axis=0), rhs)
 
 
 class CorrectorOut(NamedTuple):

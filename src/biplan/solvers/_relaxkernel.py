@@ -29,6 +29,7 @@ from __future__ import annotations
 import functools
 from typing import Any, NamedTuple
 
+from biplan import _linalg as linalg
 from biplan._jax import jax, jnp
 from biplan.assembly import (
     Load,
@@ -82,7 +83,7 @@ def _seed(layout: TubeLayout, p: ModelParams, target: Array, mask: Array) -> tup
         r = res(q)
         j = jax.jacfwd(res)(q)
         jtj = j.T @ j
-        step = jnp.linalg.solve(jtj + 1e-10 * jnp.eye(nq), -(j.T @ r))
+        step = linalg.solve(jtj + 1e-10 * jnp.eye(nq), -(j.T @ r))
         scale = jnp.minimum(1.0, SEED_MAX_STEP / (jnp.max(jnp.abs(step)) + 1e-300))
         new = q + scale * step
         return jnp.where(jnp.all(jnp.isfinite(new)), new, q)
@@ -114,9 +115,9 @@ def _descend(
     def body(s: tuple[Array, Array, Array]) -> tuple[Array, Array, Array]:
         q, it, _ = s
         e, gr, h = fun(q), grad(q), hess(q)
-        lo = jnp.linalg.eigvalsh(h)[0]
+        lo = linalg.eigvalsh(h)[0]
         shift = jnp.maximum(0.0, SHIFT_FLOOR - lo)
-        step = jnp.linalg.solve(h + shift * jnp.eye(nq), -gr)
+        step = linalg.solve(h + shift * jnp.eye(nq), -gr)
         scale = jnp.minimum(1.0, DESCENT_MAX_STEP / (jnp.max(jnp.abs(step)) + 1e-300))
         step = scale * step
         trial = jax.vmap(lambda a: fun(q + a * step))(alphas)

@@ -16,6 +16,7 @@ from typing import Any, NamedTuple
 
 import numpy as np
 
+from biplan import _linalg as linalg
 from biplan._errors import ConfigError, ConvergenceError, check_range
 from biplan._jax import jax, jnp
 from biplan.assembly import Load, Model, StateData, TubeLayout, kernels
@@ -91,10 +92,13 @@ class LoopState(NamedTuple):
     status: Array  # -1 running, else Status value
 
 
-def newton_loop(
-    layout: TubeLayout, params: Any, z0: Array, load: Load, settings: Array
-) -> LoopState:
-    """Pure (jit/vmap-able) globalised Newton iteration.
+def newton_machine(layout: TubeLayout, params: Any, load: Load, settings: Array) -> tuple:
+    """(init, body, running, finish) of the globalised Newton iteration of :func:`newton_loop`.
+
+    ``init(z0)`` is the state before the first pass, ``body(state)`` one pass, ``running(state)``
+    whether another pass is due and ``finish(state)`` sets the final status. Exposed so that a
+    driver other than ``lax.while_loop`` (e.g. :func:`biplan.solvers.pool.newton_pool`) can run
+    the same iteration.
 
     Written as a state machine with a single residual and a single Jacobian evaluation site,
     so that the compiled graph is small: each pass evaluates the trial point z + α dz; an
@@ -105,11 +109,10 @@ def newton_loop(
     k = kernels(layout)
     atol, max_steps, max_bt, c_arm = settings[0], settings[1], settings[2], settings[3]
     alpha_min = 0.5**max_bt
-    n = z0.shape[0]
 
     def lm_direction(jac: Array, r: Array, damping: Array) -> Array:
         jtj = jac.T @ jac
-        step = jnp.linalg.solve(jtj + damping * jnp.diag(jnp.diag(jtj) + 1e-12), -(jac.T @ r))
+        step = linalg.solve(jtj + damping * jnp.diag(jnp.diag(jtj) + 1e-12), -(jac.T @ r))
         return jnp.where(jnp.isfinite(step), step, 0.0)
 
     def body(s: LoopState) -> LoopState:
@@ -123,16 +126,24 @@ def newton_loop(
         jt = k.jacobian(params, zt, load)
 
         # accepted: new iterate and Newton direction
-        dz_n = jnp.linalg.solve(jt, -rt)
+        dz_n = linalg.solve(jt, -rt)
         newton_ok = jnp.all(jnp.isfinite(dz_n))
-        dz_a = jnp.where(newton_ok, dz_n, lm_direction(jt, rt, s.damping))
-        slope_a = rt @ (jt @ dz_a)
         converged = jnp.max(jnp.abs(rt)) < atol
 
         # rejected: backtrack, then Levenberg–Marquardt with growing damping
         to_lm = s.lm | (s.alpha * 0.5 < alpha_min)
         damping_r = jnp.where(s.lm, s.damping * 10.0, s.damping)
-        dz_r = jnp.where(to_lm, lm_direction(s.jac, s.r, damping_r), s.dz)
+
+        # one Levenberg–Marquardt solve serves both outcomes (an accepted trial whose Newton
+        # system is singular, or a rejected one that switches to LM): select its inputs
+        dz_lm = lm_direction(
+            jnp.where(accept, jt, s.jac),
+            jnp.where(accept, rt, s.r),
+            jnp.where(accept, s.damping, damping_r),
+        )
+        dz_a = jnp.where(newton_ok, dz_n, dz_lm)
+        slope_a = rt @ (jt @ dz_a)
+        dz_r = jnp.where(to_lm, dz_lm, s.dz)
         alpha_r = jnp.where(to_lm, 1.0, 0.5 * s.alpha)
 
         z = jnp.where(accept, zt, s.z)
@@ -164,24 +175,44 @@ def newton_loop(
     def cond(s: LoopState) -> Array:
         return (s.status < 0) & (s.evals < max_steps * (max_bt + 1))
 
-    init = LoopState(
-        z=z0,
-        r=jnp.zeros(n),
-        f=jnp.asarray(jnp.inf),
-        jac=jnp.eye(n),
-        dz=jnp.zeros(n),
-        slope=jnp.asarray(0.0),
-        alpha=jnp.asarray(0.0),
-        lm=jnp.asarray(False),
-        damping=jnp.asarray(1e-3),
-        steps=jnp.asarray(0),
-        evals=jnp.asarray(0),
-        status=jnp.asarray(-1),
-    )
-    out = jax.lax.while_loop(cond, body, init)
-    status = jnp.where(out.status < 0, Status.MAX_STEPS.value, out.status)
-    status = jnp.where(jnp.isfinite(out.f), status, Status.NONFINITE.value)
-    return out._replace(status=status)
+    def init(z0: Array) -> LoopState:
+        n = z0.shape[0]
+        return LoopState(
+            z=z0,
+            r=jnp.zeros(n),
+            f=jnp.asarray(jnp.inf),
+            jac=jnp.eye(n),
+            dz=jnp.zeros(n),
+            slope=jnp.asarray(0.0),
+            alpha=jnp.asarray(0.0),
+            lm=jnp.asarray(False),
+            damping=jnp.asarray(1e-3),
+            steps=jnp.asarray(0),
+            evals=jnp.asarray(0),
+            status=jnp.asarray(-1),
+        )
+
+    def finish(out: LoopState) -> LoopState:
+        status = jnp.where(out.status < 0, Status.MAX_STEPS.value, out.status)
+        status = jnp.where(jnp.isfinite(out.f), status, Status.NONFINITE.value)
+        return out._replace(status=status)
+
+    return init, body, cond, finish
+
+
+def newton_loop(
+    layout: TubeLayout, params: Any, z0: Array, load: Load, settings: Array
+) -> LoopState:
+    """Pure (jit/vmap-able) globalised Newton iteration.
+
+    Written as a state machine with a single residual and a single Jacobian evaluation site,
+    so that the compiled graph is small: each pass evaluates the trial point z + α dz; an
+    accepted trial becomes the iterate and gets a fresh Newton direction, a rejected one halves
+    α (Armijo backtracking) and, once α is exhausted, switches to Levenberg–Marquardt steps on
+    ½‖r‖² with growing damping.
+    """
+    init, body, cond, finish = newton_machine(layout, params, load, settings)
+    return finish(jax.lax.while_loop(cond, body, init(z0)))
 
 
 @functools.lru_cache(maxsize=64)

@@ -27,6 +27,7 @@ from typing import Any, NamedTuple
 
 import numpy as np
 
+from biplan import _linalg as linalg
 from biplan._jax import jax, jnp
 from biplan.assembly import (
     Load,
@@ -45,6 +46,7 @@ __all__ = [
     "RANK_RTOL",
     "STABILITY_TOL",
     "Observation",
+    "kkt_min_eigenvalue",
     "min_reduced_eigenvalue",
     "observe",
     "observe_batch",
@@ -94,7 +96,7 @@ def min_reduced_eigenvalue(k: Array, a: Array, active: Array) -> tuple[Array, Ar
     """
     n = k.shape[0]
     a = jnp.where(active[:, None], a, 0.0)
-    _, s, vt = jnp.linalg.svd(a, full_matrices=True)
+    _, s, vt = linalg.svd(a)
     sig = jnp.zeros(n).at[: min(a.shape[0], n)].set(s[: min(a.shape[0], n)])
     rank = jnp.sum(sig > RANK_RTOL * jnp.maximum(jnp.max(sig), 1e-300))
     null = jnp.arange(n) >= rank
@@ -103,9 +105,32 @@ def min_reduced_eigenvalue(k: Array, a: Array, active: Array) -> tuple[Array, Ar
     shift = jnp.sqrt(jnp.sum(k**2)) + 1.0
     both = null[:, None] & null[None, :]
     m = jnp.where(both, rot, 0.0) + jnp.diag(jnp.where(null, 0.0, shift))
-    lam = jnp.linalg.eigvalsh(m)[0]
+    lam = linalg.eigvalsh(m)[0]
     dof = n - rank
     return jnp.where(dof > 0, lam, jnp.inf), dof
+
+
+def kkt_min_eigenvalue(
+    layout: TubeLayout, z: Array, jac: Array, gaps: Array, load: Load, weak_contacts: bool = False
+) -> Array:
+    """λ_min(H_r) at a state z from its KKT Jacobian ``jac`` (``assembly.kkt_jacobian``).
+
+    The Jacobian already holds what the stability test needs (MODEL §11–12): its top-left
+    block is K = ∇²_q L, its top-right columns are Gᵀ and −Cᵀ (the guide and contact
+    gradients) and the last column d·a. Reusing them saves the second Hessian evaluation of
+    :func:`observe` where a solver has just computed the Jacobian at its converged state. The
+    active set is that of :func:`observe`; ``gaps`` are the contact gaps w_∂(q) [mm].
+    """
+    nq, ng, nc = sizes(layout)
+    k = jac[:nq, :nq]
+    cols = jac[:nq, nq:].T  # rows [G; −C; d·a]
+    a = jnp.concatenate([cols[:ng], -cols[ng : ng + nc], cols[-1:]])
+    lam_c = z[nq + ng : nq + ng + nc]
+    closed = gaps < ACTIVE_GAP
+    contact = closed if weak_contacts else closed & (lam_c > ACTIVE_MULTIPLIER)
+    d = load.displacement_control > 0.5
+    active = jnp.concatenate([jnp.ones(ng, bool), contact, d[None]])
+    return min_reduced_eigenvalue(k, a, active)[0]
 
 
 def observe(

@@ -1,0 +1,131 @@
+"""A pool of independent Newton solves run on a fixed number of ``vmap`` lanes.
+
+Under ``vmap`` a ``lax.while_loop`` runs until its *slowest* lane has finished, so a plain
+batched Newton solve costs (number of solves) × (passes of the slowest solve): one seed that
+needs 175 passes while its neighbours converge in 6 makes the whole batch pay 175. The
+multi-start searches of the stability map have exactly that mix (most seeds converge in 6–8
+passes, a few grind to the iteration cap).
+
+:func:`newton_pool` instead keeps ``lanes`` solves in flight and hands a finished lane the
+next task of a queue (lane refilling), so the cost is ≈ the *sum* of the passes over all tasks
+divided by the number of lanes, plus a short tail. Each lane runs exactly the iteration of
+:func:`biplan.solvers.newton.newton_loop` (same state machine, same settings), so a task's
+result equals a single ``newton_loop`` solve from the same start.
+
+All shapes are fixed by the (padded) task arrays and ``lanes``: the number of real tasks is a
+traced scalar, so one compiled kernel serves every chunk of a sweep.
+"""
+
+from __future__ import annotations
+
+import functools
+from typing import Any, NamedTuple
+
+from biplan._jax import jax, jnp
+from biplan.assembly import Load, TubeLayout
+from biplan.solvers.newton import newton_machine
+
+__all__ = ["PoolResult", "newton_pool", "pool_kernel"]
+
+Array = Any
+
+
+class PoolResult(NamedTuple):
+    """Per task (leading axis: task, padded): final iterate, status (Status value; −1 for
+    padding tasks) and residual evaluations."""
+
+    z: Array
+    status: Array
+    evals: Array
+
+
+def newton_pool(
+    layout: TubeLayout,
+    params: Any,
+    point: Array,
+    z0: Array,
+    loads: Load,
+    n_tasks: Array,
+    settings: Array,
+    lanes: int,
+) -> PoolResult:
+    """Solve tasks 0 … n_tasks−1 on ``lanes`` lanes (pure; jit-able).
+
+    Parameters
+    ----------
+    layout : TubeLayout
+    params : ModelParams
+        Stacked along a leading "point" axis (P, …).
+    point : int array (T,)
+        The point (row of ``params``) of each task.
+    z0 : array (T, n_z)
+        Start of each task.
+    loads : Load
+        Of (T,) arrays: each task's load.
+    n_tasks : int scalar
+        Number of real tasks (the first n_tasks of the T); the rest is padding.
+    settings : array
+        ``Newton.settings()``.
+    lanes : int
+        Solves in flight (static).
+    """
+    n_total = z0.shape[0]
+
+    def parts(task: Array) -> tuple:
+        p = jax.tree_util.tree_map(lambda a: a[point[task]], params)
+        load = Load(*(jnp.asarray(v)[task] for v in loads))
+        return newton_machine(layout, p, load, settings)
+
+    def init_lane(task: Array) -> Any:
+        return parts(task)[0](z0[task])
+
+    def step_lane(task: Array, s: Any) -> tuple:
+        _, body, running, finish = parts(task)
+        s = body(s)
+        return s, running(s), finish(s)
+
+    def select(mask: Array, a: Any, b: Any) -> Any:
+        return jax.tree_util.tree_map(
+            lambda x, y: jnp.where(mask.reshape((-1,) + (1,) * (x.ndim - 1)), x, y), a, b
+        )
+
+    lane_ids = jnp.arange(lanes)
+    tasks0 = jnp.where(lane_ids < n_tasks, lane_ids, -1)
+    state0 = jax.vmap(init_lane)(jnp.clip(tasks0, 0, n_total - 1))
+    out0 = PoolResult(
+        z=jnp.asarray(z0),
+        status=jnp.full(n_total, -1),
+        evals=jnp.zeros(n_total, dtype=jnp.int32),
+    )
+
+    def cond(c: tuple) -> Array:
+        return jnp.any(c[0] >= 0)
+
+    def body(c: tuple) -> tuple:
+        tasks, state, nxt, out = c
+        active = tasks >= 0
+        safe = jnp.clip(tasks, 0, n_total - 1)
+        state, running, fin = jax.vmap(step_lane)(safe, state)
+        done = active & ~running
+        idx = jnp.where(done, tasks, n_total)  # out of range: dropped
+        out = PoolResult(
+            z=out.z.at[idx].set(fin.z, mode="drop"),
+            status=out.status.at[idx].set(fin.status, mode="drop"),
+            evals=out.evals.at[idx].set(fin.evals.astype(jnp.int32), mode="drop"),
+        )
+        new = nxt + jnp.cumsum(done) - 1
+        take = done & (new < n_tasks)
+        tasks = jnp.where(take, new, jnp.where(done, -1, tasks))
+        fresh = jax.vmap(init_lane)(jnp.clip(new, 0, n_total - 1))
+        state = select(take, fresh, state)
+        return tasks, state, nxt + jnp.sum(done), out
+
+    nxt0 = jnp.minimum(jnp.asarray(lanes), n_tasks)
+    _, _, _, out = jax.lax.while_loop(cond, body, (tasks0, state0, nxt0, out0))
+    return out
+
+
+@functools.lru_cache(maxsize=16)
+def pool_kernel(layout: TubeLayout, lanes: int) -> Any:
+    """The jitted :func:`newton_pool` of a layout and lane count (built once)."""
+    return jax.jit(functools.partial(newton_pool, layout, lanes=lanes))
