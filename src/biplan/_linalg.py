@@ -58,7 +58,8 @@ def solve(a: Any, b: Any) -> Any:
 @sequential_vmap
 def svd(a: Any) -> tuple[Any, Any, Any]:
     """Full SVD (u, s, vᵀ) of a (m, n)."""
-    return jnp.linalg.svd(a, full_matrices=True)
+    u, s, vt = jnp.linalg.svd(a, full_matrices=True)
+    return u, s, vt
 
 
 @sequential_vmap

@@ -23,8 +23,8 @@ default C at b = 0.58) the distinct equilibria are searched for and classified:
 All solves of a chunk, (points × seeds), run as one task queue on a lane-refilling Newton pool
 (:func:`biplan.solvers.pool.newton_pool`, ``solve_batch`` lanes, one compiled kernel per layout
 and chunk size): a lane whose seed has converged or failed takes the next seed, so a slow seed
-no longer holds up a whole batch. Neighbour continuation stays inside a chunk, so rows should not straddle chunks
-(:func:`stability_map` sizes the chunks to whole rows).
+no longer holds up a whole batch. Neighbour continuation stays inside a chunk, so rows should
+not straddle chunks (the CLI sizes the chunks to whole rows).
 """
 
 from __future__ import annotations
