@@ -87,3 +87,24 @@ def test_stability_from_the_kkt_jacobian_equals_the_fresh_hessian(tasks) -> None
         assert float(lam) == pytest.approx(float(ref), rel=1e-8, abs=1e-10)
         lams.append(float(ref))
     assert len(lams) >= 3
+
+
+def test_pin_process_restricts_every_thread_and_can_be_undone() -> None:
+    import contextlib
+    import os
+
+    from biplan.analysis.scaleout import _available_cores, _pin_process
+
+    if not hasattr(os, "sched_setaffinity"):
+        pytest.skip("no CPU affinity on this platform")
+    before = os.sched_getaffinity(0)
+    core = _available_cores()[-1]
+    try:
+        assert _pin_process(core) == core
+        for tid in os.listdir("/proc/self/task"):
+            assert os.sched_getaffinity(int(tid)) == {core}
+    finally:
+        for tid in os.listdir("/proc/self/task"):
+            with contextlib.suppress(OSError):
+                os.sched_setaffinity(int(tid), before)
+    assert os.sched_getaffinity(0) == before

@@ -197,6 +197,20 @@ def test_resumed_sweep_equals_uninterrupted_bit_for_bit(design, grid, design_map
     assert back["u_z"].values.tobytes() == design_map["u_z"].values.tobytes()
 
 
+def test_dask_local_cluster_gives_the_in_process_map(design, grid, design_map) -> None:
+    """Two pinned LocalCluster workers (each compiles its own kernels) give the same map."""
+    from biplan.analysis.scaleout import dask_runner
+
+    done: list[int] = []
+    ds = sweep(
+        design, grid, ResponseEvaluator(), chunk_size=BATCH, runner=dask_runner(None, 2),
+        progress=lambda k, n: done.append(k),
+    )  # fmt: skip
+    assert done[-1] == grid.size
+    for name in ("u_z", "u_r", "min_eigenvalue", "status"):
+        assert np.allclose(ds[name].values, design_map[name].values, rtol=1e-12, atol=0), name
+
+
 # --- failures ---------------------------------------------------------------------------------
 @dataclass(frozen=True)
 class _Flaky:
