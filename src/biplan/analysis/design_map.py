@@ -286,32 +286,17 @@ class ResponseEvaluator:
         return out
 
 
-def _chord_scalar(kk: Any, params: Any, z: np.ndarray, jac: np.ndarray, load: Load) -> np.ndarray:
-    """NumPy twin of :func:`_chord`."""
-
-    def norm_of(zc: np.ndarray) -> tuple[np.ndarray, float]:
-        r = np.asarray(kk.residual(params, zc, load))
-        return r, float(np.max(np.abs(r))) if np.all(np.isfinite(r)) else np.inf
-
-    zc, best, best_norm = z, z, np.inf
-    for _ in range(CHORD_ITERATIONS):
-        r, norm = norm_of(zc)
-        if norm < best_norm:
-            best, best_norm = zc, norm
-        with np.errstate(all="ignore"):
-            try:
-                dz = np.linalg.solve(jac, -r)
-            except np.linalg.LinAlgError:
-                dz = np.full_like(r, np.nan)
-        zc = zc + dz if np.all(np.isfinite(dz)) else zc
-    return zc if norm_of(zc)[1] < best_norm else best
+@functools.lru_cache(maxsize=16)
+def _chord_kernel(layout: TubeLayout) -> Any:
+    """:func:`_chord` of one design, jitted (the start of each step of ``response_point``)."""
+    return jax.jit(functools.partial(_chord, layout))
 
 
 def response_point(tube: Tube, ramp: ForceRamp | None = None) -> dict[str, float]:
-    """Scalar reference of :class:`ResponseEvaluator` for one design: the same chord iterations
-    and one Newton solve per load step (``solve_equilibrium``), observed with
-    ``observe_batch`` (which evaluates the Hessian afresh, an independent check of the
-    Jacobian-block stability test of the batched kernel).
+    """Scalar reference of :class:`ResponseEvaluator` for one design: the same chord
+    iterations (:func:`_chord`, unbatched) and one Newton solve per load step
+    (``solve_equilibrium``), observed with ``observe_batch`` (which evaluates the Hessian
+    afresh: an independent check of the Jacobian-block stability test of the batched kernel).
 
     Returns
     -------
@@ -322,6 +307,7 @@ def response_point(tube: Tube, ramp: ForceRamp | None = None) -> dict[str, float
     model = Model(tube)
     solver = ramp.newton()
     kk = kernels(model.layout)
+    chord = _chord_kernel(model.layout)
     params = model.params
     z = np.asarray(model.pack(model.zeros()))
     jac = np.asarray(kk.jacobian(params, z, Load.of_force(float(ramp.forces[0]))))
@@ -329,7 +315,7 @@ def response_point(tube: Tube, ramp: ForceRamp | None = None) -> dict[str, float
     alive = True
     for f in ramp.forces:
         load = Load.of_force(float(f))
-        start = _chord_scalar(kk, params, z, jac, load)
+        start = chord(params, jnp.asarray(z), jnp.asarray(jac), load)
         sol = solve_equilibrium(model, solver, start, load)
         good = alive and sol.converged and bool(np.all(np.isfinite(sol.z)))
         first_bad.append(sol.status.value if alive and not good else -1)

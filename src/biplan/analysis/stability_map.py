@@ -38,6 +38,7 @@ import numpy as np
 
 from biplan._errors import ConfigError, check_range
 from biplan._jax import jax, jnp
+from biplan.analysis.design_map import stack_params
 from biplan.assembly import Load, Model, TubeLayout
 from biplan.geometry import Tube
 from biplan.solvers.newton import Newton, Status
@@ -242,10 +243,7 @@ class StabilityEvaluator:
             groups.setdefault(t.layout, []).append(i)
         for layout, which in groups.items():
             models = [Model(t) for t in (tubes[i] for i in which)]
-            padded = [m.params for m in models] + [models[-1].params] * (batch - len(models))
-            params = jax.tree_util.tree_map(
-                lambda *a: jnp.stack([jnp.asarray(x) for x in a]), *padded
-            )
+            params = stack_params(models, max(batch, len(models)))
             n_seeds = len(seeds(models[0], 0.0))
             capacity = max(batch, len(models)) * max(n_seeds, 2 * self.search.max_equilibria)
             u = [float(loads[i]["displacement"]) * tubes[i].initial_length for i in which]

@@ -110,6 +110,19 @@ def min_reduced_eigenvalue(k: Array, a: Array, active: Array) -> tuple[Array, Ar
     return jnp.where(dof > 0, lam, jnp.inf), dof
 
 
+def _active_rows(
+    layout: TubeLayout, z: Array, gaps: Array, load: Load, weak_contacts: bool
+) -> tuple[Array, Array, Array]:
+    """(active rows [guides; contacts; end constraint], active contacts, displacement control)
+    of the stability test (module docstring)."""
+    nq, ng, nc = sizes(layout)
+    closed = gaps < ACTIVE_GAP
+    lam_c = z[nq + ng : nq + ng + nc]
+    contact = closed if weak_contacts else closed & (lam_c > ACTIVE_MULTIPLIER)
+    d = load.displacement_control > 0.5
+    return jnp.concatenate([jnp.ones(ng, bool), contact, d[None]]), contact, d
+
+
 def kkt_min_eigenvalue(
     layout: TubeLayout, z: Array, jac: Array, gaps: Array, load: Load, weak_contacts: bool = False
 ) -> Array:
@@ -125,25 +138,16 @@ def kkt_min_eigenvalue(
     k = jac[:nq, :nq]
     cols = jac[:nq, nq:].T  # rows [G; −C; d·a]
     a = jnp.concatenate([cols[:ng], -cols[ng : ng + nc], cols[-1:]])
-    lam_c = z[nq + ng : nq + ng + nc]
-    closed = gaps < ACTIVE_GAP
-    contact = closed if weak_contacts else closed & (lam_c > ACTIVE_MULTIPLIER)
-    d = load.displacement_control > 0.5
-    active = jnp.concatenate([jnp.ones(ng, bool), contact, d[None]])
-    return min_reduced_eigenvalue(k, a, active)[0]
+    return min_reduced_eigenvalue(k, a, _active_rows(layout, z, gaps, load, weak_contacts)[0])[0]
 
 
 def observe(
     layout: TubeLayout, p: ModelParams, z: Array, load: Load, weak_contacts: bool = False
 ) -> Observation:
     """Observables of one packed state z under ``load`` (pure; see module docstring)."""
-    nq, ng, nc = sizes(layout)
+    nq = sizes(layout)[0]
     data = state_data(layout, p, z, load)
-    lam_c = z[nq + ng : nq + ng + nc]
-    closed = data.gaps < ACTIVE_GAP
-    contact = closed if weak_contacts else closed & (lam_c > ACTIVE_MULTIPLIER)
-    d = load.displacement_control > 0.5
-    active = jnp.concatenate([jnp.ones(ng, bool), contact, d[None]])
+    active, contact, d = _active_rows(layout, z, data.gaps, load, weak_contacts)
     lam_min, dof = min_reduced_eigenvalue(data.lagrangian_hessian, data.constraint_jacobian, active)
     force = jnp.where(d, -z[-1], load.force)
     return Observation(
