@@ -11,7 +11,9 @@ In one process, for the semi-bistable paper design (6 modules):
 * scalar loop — :func:`biplan.analysis.design_map.response_point` (one Newton solve per load
   step, the same algorithm unbatched) over ``--baseline`` points, points/s;
 * stability map — ``sweep`` of the equilibrium count over an n × n (C, U/l₀) grid at the
-  design's b (0.573, same layout), C ∈ [0.5, 3.0], U/l₀ ∈ [0.01, 0.4]; cold and warm;
+  design's b (0.573, same layout), C ∈ [0.5, 3.0], U/l₀ ∈ [0.01, 0.4], chunks of whole rows
+  (``stability_chunk_size``, as the CLI); cold (a two-point row: fixed-seed and march kernels
+  compile) and warm;
 * Dask — the design map on a ``--dask`` × ``--dask`` grid with a loopback ``LocalCluster`` of 1
   and of 2 workers (kernels compiled in the workers before timing), speed-up.
 
@@ -31,7 +33,7 @@ import numpy as np
 import biplan
 from biplan.analysis.design_map import ResponseEvaluator, response_point
 from biplan.analysis.scaleout import dask_runner
-from biplan.analysis.stability_map import StabilityEvaluator
+from biplan.analysis.stability_map import StabilityEvaluator, stability_chunk_size
 from biplan.analysis.sweeps import Grid, apply_values, sweep
 
 
@@ -83,9 +85,10 @@ def main() -> None:
     m = args.stability
     sev = StabilityEvaluator()
     sgrid = Grid.of(C=np.linspace(0.5, 3.0, m), displacement=np.linspace(0.01, 0.4, m))
-    cold, _ = _timed(lambda: sweep(design, Grid.of(C=[1.0], displacement=[0.1]), sev,
-                                   chunk_size=m))  # fmt: skip
-    warm, sds = _timed(lambda: sweep(design, sgrid, sev, chunk_size=m))
+    scs = stability_chunk_size(m)  # whole rows, as the CLI
+    cold, _ = _timed(lambda: sweep(design, Grid.of(C=[1.0], displacement=[0.1, 0.2]), sev,
+                                   chunk_size=scs))  # fmt: skip
+    warm, sds = _timed(lambda: sweep(design, sgrid, sev, chunk_size=scs))
     _report("stability map", sgrid.size, cold, warm, 1600, 120.0)
     counts = {k: int((sds["regime"].values == v).sum()) for k, v in (("mono", 1), ("bi", 2),
               ("multi", 3))}  # fmt: skip

@@ -15,7 +15,12 @@ import pytest
 
 from biplan import ConfigError, LinearLaw, TrilinearLaw
 from biplan.analysis.design_map import ForceRamp, ResponseEvaluator, response_point
-from biplan.analysis.stability_map import StabilityEvaluator, transition_band
+from biplan.analysis.stability_map import (
+    StabilityEvaluator,
+    StabilitySearch,
+    stability_chunk_size,
+    transition_band,
+)
 from biplan.analysis.sweeps import (
     STATUS,
     Grid,
@@ -285,3 +290,33 @@ def test_stability_map_mono_at_small_displacement_multi_at_large(design) -> None
     assert ((lam > 0) == (ds["stable"].values[0, 1, :kept] == 1)).all()
     # the prescribed displacement holds at every equilibrium (u_z/l0 = U/l0 at the load point)
     assert np.nanmax(np.abs(ds["u_z"].values[:, 1] - 0.1)) < 0.02
+
+
+def test_march_finds_the_equilibria_of_seeding_every_point(design) -> None:
+    """The default search (fixed seeds at every 4th point, branches marched along the row)
+    counts the same stable equilibria as fixed seeds at every point plus one continuation
+    step from both neighbours, with the same energies."""
+    grid = Grid.of(C=[0.5], displacement=np.linspace(0.01, 0.2, 20))  # seeds at 6 of 20
+    march = sweep(design, grid, StabilityEvaluator(), chunk_size=20)
+    every = StabilityEvaluator(StabilitySearch(continuation="neighbours", seed_spacing=0.0))
+    ref = sweep(design, grid, every, chunk_size=20)
+    assert (ref["regime"].values >= 2).any()  # the row has multistable points to find
+    assert (march["n_stable"].values == ref["n_stable"].values).all()
+    stable = ref["stable"].values == 1
+    e_ref = np.sort(np.where(stable, ref["energy"].values, np.inf), axis=-1)
+    e_march = np.sort(np.where(march["stable"].values == 1, march["energy"].values, np.inf), -1)
+    assert np.allclose(e_ref, e_march, rtol=1e-8, atol=1e-10)
+
+
+def test_stability_search_settings_are_checked() -> None:
+    with pytest.raises(ConfigError, match=r"search\.continuation"):
+        StabilitySearch(continuation="sideways")
+    with pytest.raises(ConfigError, match=r"search\.seed_spacing"):
+        StabilitySearch(seed_spacing=-0.1)
+    ev = StabilityEvaluator()
+    row = list(range(40))
+    u = np.linspace(0.01, 0.4, 40)
+    assert ev._seeded(list(u), row) == [*range(0, 40, 4), 39]
+    assert ev._seeded(list(np.linspace(0.01, 0.3, 9)), row[:9]) == row[:9]  # coarse: all
+    assert stability_chunk_size(40) == 160 and stability_chunk_size(200) == 200
+    assert stability_chunk_size(7) % 7 == 0 and stability_chunk_size(7) >= 128

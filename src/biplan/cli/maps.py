@@ -156,7 +156,8 @@ def stability(
     b: Annotated[float, typer.Option("--b", help="Geometric ratio b (set through β).")] = 0.58,
     max_equilibria: Annotated[int, typer.Option(help="Equilibria kept per point.")] = 8,
     chunk_size: Annotated[
-        int | None, typer.Option(help="Points per chunk (default: one row of displacements).")
+        int | None,
+        typer.Option(help="Points per chunk (default: whole rows of displacements, ≥ 128 points)."),
     ] = None,
     workers: _Workers = 1,
     scheduler: _Scheduler = None,
@@ -166,13 +167,17 @@ def stability(
     """Displacement-controlled stability map over (C, U/l0) at fixed b: count of stable
     equilibria (1 mono, 2 bi, ≥3 multi) and the transition band."""
     import biplan
-    from biplan.analysis.stability_map import StabilityEvaluator, StabilitySearch
+    from biplan.analysis.stability_map import (
+        StabilityEvaluator,
+        StabilitySearch,
+        stability_chunk_size,
+    )
     from biplan.analysis.sweeps import Grid, apply_values, parse_axis
 
     tube = apply_values(biplan.load_config(config), {"b": b})
     grid = Grid((parse_axis("C", c), parse_axis("displacement", displacement)))
     ev = StabilityEvaluator(StabilitySearch(max_equilibria=max_equilibria))
-    size = chunk_size or grid.shape[1]
+    size = chunk_size or stability_chunk_size(grid.shape[1])
     ds = run_map(tube, grid, ev, out, chunk_size=size, resume=resume, workers=workers,
                  scheduler=scheduler, quiet=True)  # fmt: skip
     if not quiet:
