@@ -90,32 +90,43 @@ class LoopState(NamedTuple):
     steps: Array  # accepted steps
     evals: Array  # residual evaluations
     status: Array  # -1 running, else Status value
+    pending: Array  # True: the trial z + α dz was accepted, its Jacobian is still due
+    r_trial: Array  # residual at the pending trial
+    f_trial: Array  # merit at the pending trial
 
 
 def newton_machine(layout: TubeLayout, params: Any, load: Load, settings: Array) -> tuple:
     """(init, body, running, finish) of the globalised Newton iteration of :func:`newton_loop`.
 
-    ``init(z0)`` is the state before the first pass, ``body(state)`` one pass, ``running(state)``
-    whether another pass is due and ``finish(state)`` sets the final status. Exposed so that a
-    driver other than ``lax.while_loop`` (e.g. :func:`biplan.solvers.pool.newton_pool`) can run
-    the same iteration.
+    ``init(z0)`` is the state before the first step, ``body(state)`` one Newton step,
+    ``running(state)`` whether another step is due and ``finish(state)`` sets the final
+    status. Exposed so that a driver other than ``lax.while_loop`` (e.g.
+    :func:`biplan.solvers.pool.newton_pool`) can run the same iteration.
 
-    Written as a state machine with a single residual and a single Jacobian evaluation site,
-    so that the compiled graph is small: each pass evaluates the trial point z + α dz; an
-    accepted trial becomes the iterate and gets a fresh Newton direction, a rejected one halves
-    α (Armijo backtracking) and, once α is exhausted, switches to Levenberg–Marquardt steps on
-    ½‖r‖² with growing damping.
+    A step is a line search followed by one Jacobian evaluation. The line search evaluates
+    residuals only: trial points z + α dz until one is accepted (Armijo backtracking that
+    halves α, then, once α is exhausted, Levenberg–Marquardt steps on ½‖r‖² with growing
+    damping, solved with the Jacobian of the current iterate). Only the accepted point gets a
+    Jacobian and a fresh Newton direction. Under ``vmap`` the search is a ``while_loop`` in
+    which a lane that has accepted waits (cheap: residuals and solves), so a batch evaluates
+    one Jacobian per accepted step instead of one per trial point. The sequence of trial
+    points, and so every result, is that of evaluating one trial per pass.
     """
     k = kernels(layout)
     atol, max_steps, max_bt, c_arm = settings[0], settings[1], settings[2], settings[3]
     alpha_min = 0.5**max_bt
+    max_evals = max_steps * (max_bt + 1)
 
     def lm_direction(jac: Array, r: Array, damping: Array) -> Array:
         jtj = jac.T @ jac
         step = linalg.solve(jtj + damping * jnp.diag(jnp.diag(jtj) + 1e-12), -(jac.T @ r))
         return jnp.where(jnp.isfinite(step), step, 0.0)
 
-    def body(s: LoopState) -> LoopState:
+    def searching(s: LoopState) -> Array:
+        return (s.status < 0) & ~s.pending & (s.evals < max_evals)
+
+    def trial(s: LoopState) -> LoopState:
+        """Evaluate the trial point: accept it (pending its Jacobian) or step back."""
         zt = s.z + s.alpha * s.dz
         rt = k.residual(params, zt, load)
         ft = 0.5 * rt @ rt
@@ -123,57 +134,60 @@ def newton_machine(layout: TubeLayout, params: Any, load: Load, settings: Array)
         armijo = ft <= s.f + c_arm * s.alpha * s.slope
         accept = jnp.where(s.lm, ft < s.f, armijo) | ~jnp.isfinite(s.f)
         accept = accept & jnp.isfinite(ft)
-        jt = k.jacobian(params, zt, load)
-
-        # accepted: new iterate and Newton direction
-        dz_n = linalg.solve(jt, -rt)
-        newton_ok = jnp.all(jnp.isfinite(dz_n))
-        converged = jnp.max(jnp.abs(rt)) < atol
-
         # rejected: backtrack, then Levenberg–Marquardt with growing damping
         to_lm = s.lm | (s.alpha * 0.5 < alpha_min)
         damping_r = jnp.where(s.lm, s.damping * 10.0, s.damping)
-
-        # one Levenberg–Marquardt solve serves both outcomes (an accepted trial whose Newton
-        # system is singular, or a rejected one that switches to LM): select its inputs
-        dz_lm = lm_direction(
-            jnp.where(accept, jt, s.jac),
-            jnp.where(accept, rt, s.r),
-            jnp.where(accept, s.damping, damping_r),
-        )
-        dz_a = jnp.where(newton_ok, dz_n, dz_lm)
-        slope_a = rt @ (jt @ dz_a)
-        dz_r = jnp.where(to_lm, dz_lm, s.dz)
-        alpha_r = jnp.where(to_lm, 1.0, 0.5 * s.alpha)
-
-        z = jnp.where(accept, zt, s.z)
-        steps = s.steps + jnp.where(accept & jnp.isfinite(s.f), 1, 0)
-        status = jnp.where(
-            accept & converged,
-            Status.CONVERGED.value,
-            jnp.where(
-                ~accept & (damping_r > 1e12),
-                Status.LINE_SEARCH_FAILED.value,
-                jnp.where(steps >= max_steps, Status.MAX_STEPS.value, -1),
-            ),
-        )
-        return LoopState(
-            z=z,
-            r=jnp.where(accept, rt, s.r),
-            f=jnp.where(accept, ft, s.f),
-            jac=jnp.where(accept, jt, s.jac),
-            dz=jnp.where(accept, dz_a, dz_r),
-            slope=jnp.where(accept, slope_a, s.r @ (s.jac @ dz_r)),
-            alpha=jnp.where(accept, 1.0, alpha_r),
-            lm=jnp.where(accept, ~newton_ok, to_lm),
-            damping=jnp.where(accept, jnp.maximum(s.damping * 0.3, 1e-9), damping_r),
-            steps=steps,
+        dz_r = jnp.where(to_lm, lm_direction(s.jac, s.r, damping_r), s.dz)
+        failed = damping_r > 1e12
+        # only the search fields change (z, r, f, jac and steps stay until the update)
+        return s._replace(
+            dz=jnp.where(accept, s.dz, dz_r),
+            slope=jnp.where(accept, s.slope, s.r @ (s.jac @ dz_r)),
+            alpha=jnp.where(accept, s.alpha, jnp.where(to_lm, 1.0, 0.5 * s.alpha)),
+            lm=jnp.where(accept, s.lm, to_lm),
+            damping=jnp.where(accept, s.damping, damping_r),
+            status=jnp.where(~accept & failed, Status.LINE_SEARCH_FAILED.value, s.status),
+            pending=accept,
+            r_trial=jnp.where(accept, rt, s.r_trial),
+            f_trial=jnp.where(accept, ft, s.f_trial),
             evals=s.evals + 1,
-            status=status,
         )
+
+    def update(s: LoopState) -> LoopState:
+        """Move to the accepted trial point: its Jacobian and Newton direction."""
+        zt, rt, ft = s.z + s.alpha * s.dz, s.r_trial, s.f_trial
+        jt = k.jacobian(params, zt, load)
+        dz_n = linalg.solve(jt, -rt)
+        newton_ok = jnp.all(jnp.isfinite(dz_n))
+        # singular Newton system: a Levenberg–Marquardt step instead
+        dz_a = jnp.where(newton_ok, dz_n, lm_direction(jt, rt, s.damping))
+        steps = s.steps + jnp.where(jnp.isfinite(s.f), 1, 0)
+        status = jnp.where(
+            jnp.max(jnp.abs(rt)) < atol,
+            Status.CONVERGED.value,
+            jnp.where(steps >= max_steps, Status.MAX_STEPS.value, -1),
+        )
+        moved = s._replace(
+            z=zt,
+            r=rt,
+            f=ft,
+            jac=jt,
+            dz=dz_a,
+            slope=rt @ (jt @ dz_a),
+            alpha=jnp.asarray(1.0),
+            lm=~newton_ok,
+            damping=jnp.maximum(s.damping * 0.3, 1e-9),
+            steps=steps,
+            status=status,
+            pending=jnp.asarray(False),
+        )
+        return jax.tree_util.tree_map(lambda a, b: jnp.where(s.pending, a, b), moved, s)
+
+    def body(s: LoopState) -> LoopState:
+        return update(jax.lax.while_loop(searching, trial, s))
 
     def cond(s: LoopState) -> Array:
-        return (s.status < 0) & (s.evals < max_steps * (max_bt + 1))
+        return (s.status < 0) & (s.evals < max_evals)
 
     def init(z0: Array) -> LoopState:
         n = z0.shape[0]
@@ -190,6 +204,9 @@ def newton_machine(layout: TubeLayout, params: Any, load: Load, settings: Array)
             steps=jnp.asarray(0),
             evals=jnp.asarray(0),
             status=jnp.asarray(-1),
+            pending=jnp.asarray(False),
+            r_trial=jnp.zeros(n),
+            f_trial=jnp.asarray(jnp.inf),
         )
 
     def finish(out: LoopState) -> LoopState:
@@ -203,13 +220,10 @@ def newton_machine(layout: TubeLayout, params: Any, load: Load, settings: Array)
 def newton_loop(
     layout: TubeLayout, params: Any, z0: Array, load: Load, settings: Array
 ) -> LoopState:
-    """Pure (jit/vmap-able) globalised Newton iteration.
-
-    Written as a state machine with a single residual and a single Jacobian evaluation site,
-    so that the compiled graph is small: each pass evaluates the trial point z + α dz; an
-    accepted trial becomes the iterate and gets a fresh Newton direction, a rejected one halves
-    α (Armijo backtracking) and, once α is exhausted, switches to Levenberg–Marquardt steps on
-    ½‖r‖² with growing damping.
+    """Pure (jit/vmap-able) globalised Newton iteration (:func:`newton_machine`): Newton steps
+    with an Armijo line search on ½‖r‖² that falls back to Levenberg–Marquardt steps with
+    growing damping; one residual evaluation site (the line search) and one Jacobian
+    evaluation site (the accepted point), so that the compiled graph is small.
     """
     init, body, cond, finish = newton_machine(layout, params, load, settings)
     return finish(jax.lax.while_loop(cond, body, init(z0)))
