@@ -60,13 +60,20 @@ def test_pool_equals_one_newton_loop_per_task(tasks) -> None:
     )  # fmt: skip
     assert (np.asarray(out.status)[n:] == -1).all()
     one = jax.jit(jax.vmap(lambda z, u: newton_loop(
-        m.layout, m.params, z, Load(jnp.asarray(0.0), u, jnp.asarray(1.0)), settings)))  # fmt: skip
+        m.layout, m.params, z, Load(jnp.asarray(0.0), u, jnp.asarray(1.0)), settings,
+        line_search_loop=True)))  # fmt: skip
     ref = one(jnp.asarray(z0), jnp.asarray(uu))
     assert np.array_equal(np.asarray(out.status)[:n], np.asarray(ref.status))
     assert np.array_equal(np.asarray(out.evals)[:n], np.asarray(ref.evals))
     conv = np.asarray(ref.status) == Status.CONVERGED.value
     assert conv.sum() >= n // 2
     assert np.allclose(np.asarray(out.z)[:n][conv], np.asarray(ref.z)[conv], rtol=0, atol=1e-12)
+    # the default one-pass driver visits the same trial points: same solutions
+    for i in np.flatnonzero(conv)[::4]:
+        load = Load(jnp.asarray(0.0), jnp.asarray(uu[i]), jnp.asarray(1.0))
+        sol = newton_loop(m.layout, m.params, jnp.asarray(z0[i]), load, settings)
+        assert int(sol.status) == Status.CONVERGED.value
+        assert np.allclose(np.asarray(sol.z), np.asarray(ref.z)[i], rtol=0, atol=1e-9)
 
 
 def test_stability_from_the_kkt_jacobian_equals_the_fresh_hessian(tasks) -> None:

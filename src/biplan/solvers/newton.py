@@ -95,22 +95,37 @@ class LoopState(NamedTuple):
     f_trial: Array  # merit at the pending trial
 
 
-def newton_machine(layout: TubeLayout, params: Any, load: Load, settings: Array) -> tuple:
+def newton_machine(
+    layout: TubeLayout,
+    params: Any,
+    load: Load,
+    settings: Array,
+    line_search_loop: bool = False,
+) -> tuple:
     """(init, body, running, finish) of the globalised Newton iteration of :func:`newton_loop`.
 
-    ``init(z0)`` is the state before the first step, ``body(state)`` one Newton step,
+    ``init(z0)`` is the state before the first step, ``body(state)`` one step,
     ``running(state)`` whether another step is due and ``finish(state)`` sets the final
     status. Exposed so that a driver other than ``lax.while_loop`` (e.g.
     :func:`biplan.solvers.pool.newton_pool`) can run the same iteration.
 
-    A step is a line search followed by one Jacobian evaluation. The line search evaluates
-    residuals only: trial points z + α dz until one is accepted (Armijo backtracking that
-    halves α, then, once α is exhausted, Levenberg–Marquardt steps on ½‖r‖² with growing
-    damping, solved with the Jacobian of the current iterate). Only the accepted point gets a
-    Jacobian and a fresh Newton direction. Under ``vmap`` the search is a ``while_loop`` in
-    which a lane that has accepted waits (cheap: residuals and solves), so a batch evaluates
-    one Jacobian per accepted step instead of one per trial point. The sequence of trial
-    points, and so every result, is that of evaluating one trial per pass.
+    Newton steps with Armijo backtracking on ½‖r‖² that fall back, once α is exhausted, to
+    Levenberg–Marquardt steps with growing damping (solved with the Jacobian of the current
+    iterate). Two equivalent drivers of that search (static ``line_search_loop``):
+
+    * ``False`` (default): ``body`` is one pass — one trial point, its residual and its
+      Jacobian (used only if the trial is accepted), with a single residual and a single
+      Jacobian site and one merged LM solve: the smallest graph and the cheapest pass when
+      nearly every trial is accepted (load stepping, the design map);
+    * ``True``: ``body`` is a line search on residuals alone (an inner ``while_loop`` over
+      trial points) followed by one Jacobian at the accepted point. Under ``vmap`` a lane
+      that has accepted waits (cheap: residuals and solves) while the others backtrack, so a
+      batch evaluates one Jacobian per accepted step instead of one per trial point: faster
+      when many trials are rejected (multi-start searches from far-off seeds, the
+      stability map's pool).
+
+    Both visit the same trial points (results equal to rounding; a solve that grinds through
+    hundreds of LM trials can end differently).
     """
     k = kernels(layout)
     atol, max_steps, max_bt, c_arm = settings[0], settings[1], settings[2], settings[3]
@@ -183,8 +198,71 @@ def newton_machine(layout: TubeLayout, params: Any, load: Load, settings: Array)
         )
         return jax.tree_util.tree_map(lambda a, b: jnp.where(s.pending, a, b), moved, s)
 
-    def body(s: LoopState) -> LoopState:
+    def one_pass(s: LoopState) -> LoopState:
+        """One trial point and its Jacobian (accepted or not): the default step."""
+        zt = s.z + s.alpha * s.dz
+        rt = k.residual(params, zt, load)
+        ft = 0.5 * rt @ rt
+        ft = jnp.where(jnp.isfinite(ft), ft, jnp.inf)
+        armijo = ft <= s.f + c_arm * s.alpha * s.slope
+        accept = jnp.where(s.lm, ft < s.f, armijo) | ~jnp.isfinite(s.f)
+        accept = accept & jnp.isfinite(ft)
+        jt = k.jacobian(params, zt, load)
+
+        # accepted: new iterate and Newton direction
+        dz_n = linalg.solve(jt, -rt)
+        newton_ok = jnp.all(jnp.isfinite(dz_n))
+        converged = jnp.max(jnp.abs(rt)) < atol
+
+        # rejected: backtrack, then Levenberg–Marquardt with growing damping
+        to_lm = s.lm | (s.alpha * 0.5 < alpha_min)
+        damping_r = jnp.where(s.lm, s.damping * 10.0, s.damping)
+
+        # one Levenberg–Marquardt solve serves both outcomes (an accepted trial whose Newton
+        # system is singular, or a rejected one that switches to LM): select its inputs
+        dz_lm = lm_direction(
+            jnp.where(accept, jt, s.jac),
+            jnp.where(accept, rt, s.r),
+            jnp.where(accept, s.damping, damping_r),
+        )
+        dz_a = jnp.where(newton_ok, dz_n, dz_lm)
+        slope_a = rt @ (jt @ dz_a)
+        dz_r = jnp.where(to_lm, dz_lm, s.dz)
+        alpha_r = jnp.where(to_lm, 1.0, 0.5 * s.alpha)
+
+        z = jnp.where(accept, zt, s.z)
+        steps = s.steps + jnp.where(accept & jnp.isfinite(s.f), 1, 0)
+        status = jnp.where(
+            accept & converged,
+            Status.CONVERGED.value,
+            jnp.where(
+                ~accept & (damping_r > 1e12),
+                Status.LINE_SEARCH_FAILED.value,
+                jnp.where(steps >= max_steps, Status.MAX_STEPS.value, -1),
+            ),
+        )
+        return LoopState(
+            z=z,
+            r=jnp.where(accept, rt, s.r),
+            f=jnp.where(accept, ft, s.f),
+            jac=jnp.where(accept, jt, s.jac),
+            dz=jnp.where(accept, dz_a, dz_r),
+            slope=jnp.where(accept, slope_a, s.r @ (s.jac @ dz_r)),
+            alpha=jnp.where(accept, 1.0, alpha_r),
+            lm=jnp.where(accept, ~newton_ok, to_lm),
+            damping=jnp.where(accept, jnp.maximum(s.damping * 0.3, 1e-9), damping_r),
+            steps=steps,
+            evals=s.evals + 1,
+            status=status,
+            pending=s.pending,
+            r_trial=s.r_trial,
+            f_trial=s.f_trial,
+        )
+
+    def search_step(s: LoopState) -> LoopState:
         return update(jax.lax.while_loop(searching, trial, s))
+
+    body = search_step if line_search_loop else one_pass
 
     def cond(s: LoopState) -> Array:
         return (s.status < 0) & (s.evals < max_evals)
@@ -218,14 +296,19 @@ def newton_machine(layout: TubeLayout, params: Any, load: Load, settings: Array)
 
 
 def newton_loop(
-    layout: TubeLayout, params: Any, z0: Array, load: Load, settings: Array
+    layout: TubeLayout,
+    params: Any,
+    z0: Array,
+    load: Load,
+    settings: Array,
+    line_search_loop: bool = False,
 ) -> LoopState:
     """Pure (jit/vmap-able) globalised Newton iteration (:func:`newton_machine`): Newton steps
     with an Armijo line search on ½‖r‖² that falls back to Levenberg–Marquardt steps with
     growing damping; one residual evaluation site (the line search) and one Jacobian
     evaluation site (the accepted point), so that the compiled graph is small.
     """
-    init, body, cond, finish = newton_machine(layout, params, load, settings)
+    init, body, cond, finish = newton_machine(layout, params, load, settings, line_search_loop)
     return finish(jax.lax.while_loop(cond, body, init(z0)))
 
 

@@ -10,7 +10,10 @@ passes, a few grind to the iteration cap).
 next task of a queue (lane refilling), so the cost is ≈ the *sum* of the passes over all tasks
 divided by the number of lanes, plus a short tail. Each lane runs exactly the iteration of
 :func:`biplan.solvers.newton.newton_loop` (same state machine, same settings), so a task's
-result equals a single ``newton_loop`` solve from the same start.
+result equals a single ``newton_loop(..., line_search_loop=True)`` solve from the same start.
+Each step of a lane is a line search on residuals followed by one Jacobian at the accepted
+point (``line_search_loop``), so lanes grinding through rejected trials of far-off seeds cost
+residuals, not Jacobians.
 
 All shapes are fixed by the (padded) task arrays and ``lanes``: the number of real tasks is a
 traced scalar, so one compiled kernel serves every chunk of a sweep.
@@ -74,7 +77,7 @@ def newton_pool(
     def parts(task: Array) -> tuple:
         p = jax.tree_util.tree_map(lambda a: a[point[task]], params)
         load = Load(*(jnp.asarray(v)[task] for v in loads))
-        return newton_machine(layout, p, load, settings)
+        return newton_machine(layout, p, load, settings, line_search_loop=True)
 
     def init_lane(task: Array) -> Any:
         return parts(task)[0](z0[task])
