@@ -137,18 +137,23 @@ def newton_machine(
         step = linalg.solve(jtj + damping * jnp.diag(jnp.diag(jtj) + 1e-12), -(jac.T @ r))
         return jnp.where(jnp.isfinite(step), step, 0.0)
 
-    def searching(s: LoopState) -> Array:
-        return (s.status < 0) & ~s.pending & (s.evals < max_evals)
-
-    def trial(s: LoopState) -> LoopState:
-        """Evaluate the trial point: accept it (pending its Jacobian) or step back."""
+    def evaluate(s: LoopState) -> tuple:
+        """The trial point z + α dz, its residual and merit, and whether it is accepted
+        (Armijo on ½‖r‖², plain decrease in LM mode, anything finite at the start)."""
         zt = s.z + s.alpha * s.dz
         rt = k.residual(params, zt, load)
         ft = 0.5 * rt @ rt
         ft = jnp.where(jnp.isfinite(ft), ft, jnp.inf)
         armijo = ft <= s.f + c_arm * s.alpha * s.slope
         accept = jnp.where(s.lm, ft < s.f, armijo) | ~jnp.isfinite(s.f)
-        accept = accept & jnp.isfinite(ft)
+        return zt, rt, ft, accept & jnp.isfinite(ft)
+
+    def searching(s: LoopState) -> Array:
+        return (s.status < 0) & ~s.pending & (s.evals < max_evals)
+
+    def trial(s: LoopState) -> LoopState:
+        """Evaluate the trial point: accept it (pending its Jacobian) or step back."""
+        _, rt, ft, accept = evaluate(s)
         # rejected: backtrack, then Levenberg–Marquardt with growing damping
         to_lm = s.lm | (s.alpha * 0.5 < alpha_min)
         damping_r = jnp.where(s.lm, s.damping * 10.0, s.damping)
@@ -200,13 +205,7 @@ def newton_machine(
 
     def one_pass(s: LoopState) -> LoopState:
         """One trial point and its Jacobian (accepted or not): the default step."""
-        zt = s.z + s.alpha * s.dz
-        rt = k.residual(params, zt, load)
-        ft = 0.5 * rt @ rt
-        ft = jnp.where(jnp.isfinite(ft), ft, jnp.inf)
-        armijo = ft <= s.f + c_arm * s.alpha * s.slope
-        accept = jnp.where(s.lm, ft < s.f, armijo) | ~jnp.isfinite(s.f)
-        accept = accept & jnp.isfinite(ft)
+        zt, rt, ft, accept = evaluate(s)
         jt = k.jacobian(params, zt, load)
 
         # accepted: new iterate and Newton direction
