@@ -376,3 +376,60 @@ def test_bad_inputs_raise_config_error(model1):
     for kwargs in ({"atol": 0.0}, {"atol": -1.0}, {"max_steps": 0}, {"armijo": 0.7}):
         with pytest.raises(ConfigError):
             Newton(**kwargs)
+
+
+# --------------------------------------------------------------------------------------------
+# Newton watchdog (free steps)
+# --------------------------------------------------------------------------------------------
+def test_watchdog_returns_the_best_of_its_free_steps(model1):
+    """With free steps the iterates are those of plain Newton; a solve whose free steps run
+    out unconverged goes back to the iterate of smallest merit ½‖r‖² (here it also hits the
+    step limit, so that is what it returns)."""
+    from biplan._jax import jnp
+    from biplan.assembly import kernels
+
+    kk = kernels(model1.layout)
+    rng = np.random.default_rng(3)
+    load = Load.of_displacement(1.0)
+    jload = Load(*(jnp.asarray(float(v)) for v in load))
+    picked = set()
+    for _ in range(5):
+        zs = [model1.pack(rng.normal(scale=0.5, size=model1.n_coordinates))]
+        for _ in range(3):
+            r = np.asarray(kk.residual(model1.params, zs[-1], jload))
+            jac = np.asarray(kk.jacobian(model1.params, zs[-1], jload))
+            zs.append(zs[-1] + np.linalg.solve(jac, -r))
+        merit = [0.5 * np.sum(np.asarray(kk.residual(model1.params, z, jload)) ** 2) for z in zs]
+        sol = biplan.solve_equilibrium(model1, Newton(max_steps=3, free_steps=3), zs[0], load)
+        assert sol.status is Status.MAX_STEPS
+        best = int(np.argmin(merit))
+        picked.add(best)
+        assert np.allclose(sol.z, zs[best], rtol=1e-9, atol=1e-9)
+    assert len(picked) > 1  # not always the last (or the first) iterate
+
+
+def test_watchdog_reaches_the_same_equilibrium_with_fewer_residuals(model6, reference6):
+    """Off the relaxed reference every contact touches (gap 0) and the merit of the smoothed
+    Fischer–Burmeister rows is so curved that the line search rejects converging full steps;
+    the watchdog takes them (the design map's first load steps, docs/maps.md)."""
+    from biplan._jax import jnp
+    from biplan.solvers.newton import compiled_loop
+
+    load = Load(jnp.asarray(0.1), jnp.asarray(0.0), jnp.asarray(0.0))
+    z0 = jnp.asarray(reference6.z)
+    out = {}
+    for free in (0, 8):
+        settings = Newton(max_backtracks=12, free_steps=free).settings()
+        out[free] = compiled_loop(model6.layout, free)(model6.params, z0, load, settings)
+        assert int(out[free].status) == Status.CONVERGED.value
+    n = model6.n_coordinates
+    assert np.allclose(out[8].z[:n], out[0].z[:n], atol=1e-9)
+    assert int(out[8].evals) < int(out[0].evals)
+
+
+def test_watchdog_length_is_checked():
+    with pytest.raises(ConfigError, match="free_steps"):
+        Newton(free_steps=-1)
+    with pytest.raises(ConfigError, match="free_steps"):
+        Newton(free_steps=2.0)
+    assert Newton(max_steps=5, free_steps=5).free_steps == 5

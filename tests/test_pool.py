@@ -29,6 +29,9 @@ def test_sequential_vmap_matches_batched_linear_algebra() -> None:
     _, sv, _ = jax.vmap(linalg.svd)(m)
     assert np.allclose(sv, np.linalg.svd(m)[1], atol=1e-12)
     assert np.allclose(jax.vmap(linalg.pinv)(m), np.linalg.pinv(m), atol=1e-12)
+    lu, piv = jax.vmap(jax.vmap(linalg.lu_factor))(a)
+    x2 = jax.jit(jax.vmap(jax.vmap(linalg.lu_solve)))(lu, piv, b)
+    assert np.allclose(x2, x, atol=1e-12)
     # no batched LAPACK call is left in the compiled kernel: the batch is a loop
     hlo = jax.jit(jax.vmap(linalg.solve)).lower(a[0], b[0]).as_text()
     assert "while" in hlo

@@ -258,6 +258,14 @@ def test_non_converged_points_have_status_and_nan(design) -> None:
     assert np.isnan(ds["u_z"].values).all() and np.isnan(ds["u_r"].values).all()
 
 
+def test_ramp_settings_are_checked() -> None:
+    for bad in (-1, 1.5, True):
+        with pytest.raises(ConfigError, match="ramp.free_steps"):
+            ForceRamp(free_steps=bad)
+    assert ForceRamp(free_steps=0).newton().free_steps == 0
+    assert ResponseEvaluator(ForceRamp(free_steps=3)).describe()["free_steps"] == 3
+
+
 # --- the stability map ------------------------------------------------------------------------
 def test_transition_band_marks_alternating_stretches() -> None:
     regime = np.array([[1, 1, 2, 1, 2, 3, 3], [1, 1, 1, 2, 2, 3, 3], [1, 3, 1, 1, 1, 1, 1]])

@@ -24,7 +24,7 @@ from typing import Any
 
 from biplan._jax import jax, jnp
 
-__all__ = ["eigvalsh", "pinv", "sequential_vmap", "solve", "svd"]
+__all__ = ["eigvalsh", "lu_factor", "lu_solve", "pinv", "sequential_vmap", "solve", "svd"]
 
 
 def sequential_vmap(fn: Callable[..., Any]) -> Callable[..., Any]:
@@ -53,6 +53,19 @@ def sequential_vmap(fn: Callable[..., Any]) -> Callable[..., Any]:
 def solve(a: Any, b: Any) -> Any:
     """x with a x = b (LU with partial pivoting); a (n, n), b (n,)."""
     return jnp.linalg.solve(a, b)
+
+
+@sequential_vmap
+def lu_factor(a: Any) -> tuple[Any, Any]:
+    """LU factors with partial pivoting (lu, pivots) of a (n, n), for :func:`lu_solve`."""
+    lu, piv = jax.scipy.linalg.lu_factor(a)
+    return lu, piv
+
+
+@sequential_vmap
+def lu_solve(lu: Any, piv: Any, b: Any) -> Any:
+    """x with a x = b from the factors of :func:`lu_factor`; b (n,)."""
+    return jax.scipy.linalg.lu_solve((lu, piv), b)
 
 
 @sequential_vmap

@@ -128,7 +128,7 @@ class _Stepper:
 
     def __init__(self, model: Model, ramp: Ramp) -> None:
         self.model, self.ramp = model, ramp
-        self.loop = compiled_loop(model.layout)
+        self.loop = compiled_loop(model.layout, ramp.newton.free_steps)
         self.settings = ramp.newton.settings()
         self.d = 1.0 if ramp.displacement_control else 0.0
 

@@ -75,6 +75,11 @@ class ForceRamp:
     max_backtracks : int
         Line-search halvings per Newton step (the batched loop runs in lock-step until every
         design of the batch has finished, so a failing design must fail fast).
+    free_steps : int
+        Newton watchdog steps per load step (:class:`~biplan.solvers.newton.Newton`): full
+        steps without the line-search test, falling back to the best iterate. The first load
+        steps open the contacts that all touch in the reference (gap 0); there the line search
+        rejects full semismooth-Newton steps that converge (docs/maps.md). ≥ 0.
     """
 
     rate: float = 0.8
@@ -84,6 +89,7 @@ class ForceRamp:
     atol: float = 1e-9
     max_steps: int = 60
     max_backtracks: int = 12
+    free_steps: int = 8
 
     def __post_init__(self) -> None:
         r = check_range("ramp.rate", self.rate)
@@ -94,6 +100,9 @@ class ForceRamp:
         n = self.n_steps
         if isinstance(n, bool) or not isinstance(n, int) or not 2 <= n <= 512:
             raise ConfigError("ramp.n_steps", n, "an integer in [2, 512]")
+        f = self.free_steps
+        if isinstance(f, bool) or not isinstance(f, int) or f < 0:
+            raise ConfigError("ramp.free_steps", f, "an integer ≥ 0")
         self.newton()
 
     @property
@@ -107,38 +116,56 @@ class ForceRamp:
         return self.rate * self.times
 
     def newton(self) -> Newton:
-        return Newton(atol=self.atol, max_steps=self.max_steps, max_backtracks=self.max_backtracks)
+        return Newton(
+            atol=self.atol,
+            max_steps=self.max_steps,
+            max_backtracks=self.max_backtracks,
+            free_steps=self.free_steps,
+        )
 
 
-#: Chord iterations (the previous equilibrium's Jacobian, residuals only) before Newton.
-CHORD_ITERATIONS = 3
+#: Name of the design (vmap) axis of the batched ramp (Newton skips work no lane needs).
+LANES = "designs"
+#: Most chord iterations (the previous equilibrium's Jacobian, residuals only) per load step.
+CHORD_ITERATIONS = 8
 
 
-def _chord(layout: TubeLayout, p: Any, z: Array, jac: Array, load: Load) -> Array:
-    """Chord (modified Newton) iterates z ← z − J⁻¹ r(z) with a fixed Jacobian; returns the
-    iterate of smallest ‖r‖∞ (z itself when every step made it worse or non-finite)."""
+def _chord(layout: TubeLayout, p: Any, z: Array, jac: Array, load: Load, atol: Array) -> Array:
+    """Chord (modified Newton) iterates z ← z − J⁻¹ r(z) with the fixed Jacobian ``jac``
+    (factored once), until ‖r‖∞ < atol or :data:`CHORD_ITERATIONS` steps; returns the iterate
+    of smallest ‖r‖∞ (z itself when every step made it worse or non-finite). An iterate
+    below ``atol`` is accepted by the Newton loop's first pass, which then only evaluates the
+    Jacobian there (for the stability test and the next step's chord)."""
+    lu, piv = linalg.lu_factor(jac)
 
-    def step(_: int, c: tuple) -> tuple:
-        zc, best, best_norm = c
+    def norm(zc: Array) -> Array:
         r = residual(layout, p, zc, load)
-        norm = jnp.where(jnp.all(jnp.isfinite(r)), jnp.max(jnp.abs(r)), jnp.inf)
-        take = norm < best_norm
-        best = jnp.where(take, zc, best)
-        best_norm = jnp.where(take, norm, best_norm)
-        dz = linalg.solve(jac, -r)
-        return jnp.where(jnp.all(jnp.isfinite(dz)), zc + dz, zc), best, best_norm
+        return r, jnp.where(jnp.all(jnp.isfinite(r)), jnp.max(jnp.abs(r)), jnp.inf)
 
-    zc, best, best_norm = jax.lax.fori_loop(0, CHORD_ITERATIONS, step, (z, z, jnp.asarray(jnp.inf)))
-    r = residual(layout, p, zc, load)
-    norm = jnp.where(jnp.all(jnp.isfinite(r)), jnp.max(jnp.abs(r)), jnp.inf)
-    return jnp.where(norm < best_norm, zc, best)
+    def cond(c: tuple) -> Array:
+        k, _, _, _, best_norm, last_norm = c
+        return (k < CHORD_ITERATIONS) & (best_norm >= atol) & jnp.isfinite(last_norm)
+
+    def step(c: tuple) -> tuple:
+        k, zc, r, best, best_norm, _ = c
+        dz = linalg.lu_solve(lu, piv, -r)
+        zn = jnp.where(jnp.all(jnp.isfinite(dz)), zc + dz, zc)
+        rn, nn = norm(zn)
+        take = nn < best_norm
+        return k + 1, zn, rn, jnp.where(take, zn, best), jnp.where(take, nn, best_norm), nn
+
+    r0, n0 = norm(z)
+    init = (jnp.asarray(0), z, r0, z, n0, n0)
+    return jax.lax.while_loop(cond, step, init)[3]
 
 
-def _path(layout: TubeLayout, p: Any, z0: Array, forces: Array, settings: Array) -> tuple:
+def _path(
+    layout: TubeLayout, free_steps: int, p: Any, z0: Array, forces: Array, settings: Array
+) -> tuple:
     """Load stepping through ``forces`` from z0 (pure; vmapped over designs).
 
-    Each step starts with :data:`CHORD_ITERATIONS` chord iterations at the new load with the
-    KKT Jacobian of the previous equilibrium (cheap: residuals and solves only) and is
+    Each step starts with up to :data:`CHORD_ITERATIONS` chord iterations at the new load with
+    the KKT Jacobian of the previous equilibrium (cheap: residuals and solves only) and is
     finished by the globalised :func:`newton_loop`, whose first pass also evaluates the
     Jacobian at the converged state. Stability is read from that Jacobian
     (:func:`kkt_min_eigenvalue`), so no second Hessian is evaluated per step.
@@ -150,7 +177,8 @@ def _path(layout: TubeLayout, p: Any, z0: Array, forces: Array, settings: Array)
     def body(carry: tuple, f: Array) -> tuple:
         z, jac, alive = carry
         load = Load(f, zero, zero)
-        out = newton_loop(layout, p, _chord(layout, p, z, jac, load), load, settings)
+        start = _chord(layout, p, z, jac, load, settings[0])
+        out = newton_loop(layout, p, start, load, settings, free_steps=free_steps, axis_name=LANES)
         ok = alive & (out.status == Status.CONVERGED.value) & jnp.all(jnp.isfinite(out.z))
         q = out.z[:nq]
         end = chain.endpoint(layout, p.geometry, q)
@@ -167,9 +195,9 @@ def _path(layout: TubeLayout, p: Any, z0: Array, forces: Array, settings: Array)
 
 
 @functools.lru_cache(maxsize=16)
-def _kernel(layout: TubeLayout) -> Any:
-    fn = functools.partial(_path, layout)
-    return jax.jit(jax.vmap(fn, in_axes=(0, None, None, None)))
+def _kernel(layout: TubeLayout, free_steps: int) -> Any:
+    fn = functools.partial(_path, layout, free_steps)
+    return jax.jit(jax.vmap(fn, in_axes=(0, None, None, None), axis_name=LANES))
 
 
 def stack_params(models: Sequence[Model], batch: int) -> Any:
@@ -252,6 +280,7 @@ class ResponseEvaluator:
             "atol": r.atol,
             "max_steps": r.max_steps,
             "max_backtracks": r.max_backtracks,
+            "free_steps": r.free_steps,
         }
 
     def finish(self, ds: Any) -> Any:
@@ -274,7 +303,8 @@ class ResponseEvaluator:
             for lo in range(0, len(which), batch):
                 part = which[lo : lo + batch]
                 params = stack_params(models[lo : lo + batch], batch)
-                _, rec = _kernel(layout)(params, z0, forces, settings)
+                kernel = _kernel(layout, self.ramp.free_steps)
+                _, rec = kernel(params, z0, forces, settings)
                 ok, bad, uz, ur, zp, lam = (np.asarray(r)[: len(part)] for r in rec)
                 l0 = np.asarray([tubes[i].initial_length for i in part])
                 res = _summarise(self.ramp, ok, bad, uz, ur, zp, lam, l0)
@@ -315,7 +345,7 @@ def response_point(tube: Tube, ramp: ForceRamp | None = None) -> dict[str, float
     alive = True
     for f in ramp.forces:
         load = Load.of_force(float(f))
-        start = chord(params, jnp.asarray(z), jnp.asarray(jac), load)
+        start = chord(params, jnp.asarray(z), jnp.asarray(jac), load, jnp.asarray(ramp.atol))
         sol = solve_equilibrium(model, solver, start, load)
         good = alive and sol.converged and bool(np.all(np.isfinite(sol.z)))
         first_bad.append(sol.status.value if alive and not good else -1)

@@ -58,12 +58,22 @@ class Newton:
         Step halvings in the Armijo line search, ≥ 1.
     armijo : float
         Sufficient-decrease constant c in (0, 0.5).
+    free_steps : int
+        Watchdog (Chamberlain et al. 1982): the first ``free_steps`` Newton steps of a solve
+        are taken whenever the trial point is finite, without the line-search test; the
+        iterate of smallest merit is kept, and a solve that has not converged when they run
+        out continues from it with the line search. 0 (default) is the plain globalised
+        iteration. Near contact switches the merit ½‖r‖² of the smoothed Fischer–Burmeister
+        rows is so curved (ε = 1e-6) that the line search rejects full Newton steps that
+        would converge in a few iterations (docs/maps.md); ≥ 0 (steps past ``max_steps``
+        never happen).
     """
 
     atol: float = 1e-9
     max_steps: int = 60
     max_backtracks: int = 30
     armijo: float = 1e-4
+    free_steps: int = 0
 
     def __post_init__(self) -> None:
         check_range("Newton.atol", self.atol, low=0.0)
@@ -72,6 +82,9 @@ class Newton:
             v = getattr(self, name)
             if isinstance(v, bool) or not isinstance(v, int) or v < 1:
                 raise ConfigError(f"Newton.{name}", v, "an integer ≥ 1")
+        f = self.free_steps
+        if isinstance(f, bool) or not isinstance(f, int) or f < 0:
+            raise ConfigError("Newton.free_steps", f, "an integer ≥ 0")
 
     def settings(self) -> Array:
         return jnp.asarray([self.atol, self.max_steps, self.max_backtracks, self.armijo])
@@ -93,6 +106,13 @@ class LoopState(NamedTuple):
     pending: Array  # True: the trial z + α dz was accepted, its Jacobian is still due
     r_trial: Array  # residual at the pending trial
     f_trial: Array  # merit at the pending trial
+    free: Array  # watchdog steps left (Newton.free_steps)
+    best_z: Array  # watchdog: iterate of smallest merit, its residual, merit, Jacobian,
+    best_r: Array  # direction and LM flag
+    best_f: Array
+    best_jac: Array
+    best_dz: Array
+    best_lm: Array
 
 
 def newton_machine(
@@ -101,6 +121,8 @@ def newton_machine(
     load: Load,
     settings: Array,
     line_search_loop: bool = False,
+    free_steps: int = 0,
+    axis_name: str | None = None,
 ) -> tuple:
     """(init, body, running, finish) of the globalised Newton iteration of :func:`newton_loop`.
 
@@ -125,7 +147,15 @@ def newton_machine(
       stability map's pool).
 
     Both visit the same trial points (results equal to rounding; a solve that grinds through
-    hundreds of LM trials can end differently).
+    hundreds of LM trials can end differently). ``free_steps`` (static) is the watchdog of
+    :class:`Newton`; with 0 its state fields are carried but never computed.
+
+    ``axis_name`` (static): the name of an enclosing ``vmap`` axis (``jax.vmap(...,
+    axis_name=...)``). The Levenberg–Marquardt direction (a normal-equations solve, ≈ 1/4 of
+    a pass) is then computed only when some lane of the batch needs it (``lax.cond`` on a
+    ``psum`` over the axis); without it, ``vmap`` turns that ``cond`` into a select and every
+    lane pays for it on every pass. Unbatched, the ``cond`` skips it per solve. Same results
+    either way (a skipped direction is never selected).
     """
     k = kernels(layout)
     atol, max_steps, max_bt, c_arm = settings[0], settings[1], settings[2], settings[3]
@@ -137,6 +167,18 @@ def newton_machine(
         step = linalg.solve(jtj + damping * jnp.diag(jnp.diag(jtj) + 1e-12), -(jac.T @ r))
         return jnp.where(jnp.isfinite(step), step, 0.0)
 
+    def any_lane(need: Array) -> Array:
+        if axis_name is not None:
+            return jax.lax.psum(need.astype(jnp.int32), axis_name) > 0
+        return need
+
+    def lm_if(need: Array, jac: Array, r: Array, damping: Array) -> Array:
+        """:func:`lm_direction` where ``need`` (zeros elsewhere: never selected there),
+        computed only if some lane of the ``axis_name`` batch needs it."""
+        return jax.lax.cond(
+            any_lane(need), lambda: lm_direction(jac, r, damping), lambda: jnp.zeros_like(r)
+        )
+
     def evaluate(s: LoopState) -> tuple:
         """The trial point z + α dz, its residual and merit, and whether it is accepted
         (Armijo on ½‖r‖², plain decrease in LM mode, anything finite at the start)."""
@@ -146,7 +188,53 @@ def newton_machine(
         ft = jnp.where(jnp.isfinite(ft), ft, jnp.inf)
         armijo = ft <= s.f + c_arm * s.alpha * s.slope
         accept = jnp.where(s.lm, ft < s.f, armijo) | ~jnp.isfinite(s.f)
+        if free_steps:
+            accept = accept | (s.free > 0)
         return zt, rt, ft, accept & jnp.isfinite(ft)
+
+    def watch(prev: LoopState, new: LoopState, accepted: Array) -> LoopState:
+        """Watchdog bookkeeping after a pass: count the free step, keep the best iterate and,
+        when the free steps are spent without convergence, go back to the best one."""
+        if not free_steps:
+            return new
+        used = accepted & jnp.isfinite(prev.f) & (prev.free > 0)
+        free = prev.free - used.astype(prev.free.dtype)
+        better = accepted & (new.f < prev.best_f)
+
+        def keep(a: Array, b: Array) -> Array:
+            return jnp.where(better, a, b)
+
+        best = (
+            keep(new.z, prev.best_z),
+            keep(new.r, prev.best_r),
+            keep(new.f, prev.best_f),
+            keep(new.jac, prev.best_jac),
+            keep(new.dz, prev.best_dz),
+            keep(new.lm, prev.best_lm),
+        )
+        out = new._replace(
+            free=free,
+            best_z=best[0],
+            best_r=best[1],
+            best_f=best[2],
+            best_jac=best[3],
+            best_dz=best[4],
+            best_lm=best[5],
+        )
+        # spent without convergence (also at the step limit: a failed solve returns its best)
+        unconverged = new.status != Status.CONVERGED.value
+        revert = used & (free == 0) & unconverged & (best[2] < new.f)
+        back = out._replace(
+            z=best[0],
+            r=best[1],
+            f=best[2],
+            jac=best[3],
+            dz=best[4],
+            lm=best[5],
+            slope=best[1] @ (best[3] @ best[4]),
+            alpha=jnp.asarray(1.0),
+        )
+        return jax.tree_util.tree_map(lambda a, b: jnp.where(revert, a, b), back, out)
 
     def searching(s: LoopState) -> Array:
         return (s.status < 0) & ~s.pending & (s.evals < max_evals)
@@ -157,7 +245,7 @@ def newton_machine(
         # rejected: backtrack, then Levenberg–Marquardt with growing damping
         to_lm = s.lm | (s.alpha * 0.5 < alpha_min)
         damping_r = jnp.where(s.lm, s.damping * 10.0, s.damping)
-        dz_r = jnp.where(to_lm, lm_direction(s.jac, s.r, damping_r), s.dz)
+        dz_r = jnp.where(to_lm, lm_if(~accept & to_lm, s.jac, s.r, damping_r), s.dz)
         failed = damping_r > 1e12
         # only the search fields change (z, r, f, jac and steps stay until the update)
         return s._replace(
@@ -180,7 +268,7 @@ def newton_machine(
         dz_n = linalg.solve(jt, -rt)
         newton_ok = jnp.all(jnp.isfinite(dz_n))
         # singular Newton system: a Levenberg–Marquardt step instead
-        dz_a = jnp.where(newton_ok, dz_n, lm_direction(jt, rt, s.damping))
+        dz_a = jnp.where(newton_ok, dz_n, lm_if(s.pending & ~newton_ok, jt, rt, s.damping))
         steps = s.steps + jnp.where(jnp.isfinite(s.f), 1, 0)
         status = jnp.where(
             jnp.max(jnp.abs(rt)) < atol,
@@ -201,7 +289,8 @@ def newton_machine(
             status=status,
             pending=jnp.asarray(False),
         )
-        return jax.tree_util.tree_map(lambda a, b: jnp.where(s.pending, a, b), moved, s)
+        new = jax.tree_util.tree_map(lambda a, b: jnp.where(s.pending, a, b), moved, s)
+        return watch(s, new, s.pending)
 
     def one_pass(s: LoopState) -> LoopState:
         """One trial point and its Jacobian (accepted or not): the default step."""
@@ -219,7 +308,8 @@ def newton_machine(
 
         # one Levenberg–Marquardt solve serves both outcomes (an accepted trial whose Newton
         # system is singular, or a rejected one that switches to LM): select its inputs
-        dz_lm = lm_direction(
+        dz_lm = lm_if(
+            jnp.where(accept, ~newton_ok, to_lm),
             jnp.where(accept, jt, s.jac),
             jnp.where(accept, rt, s.r),
             jnp.where(accept, s.damping, damping_r),
@@ -240,7 +330,7 @@ def newton_machine(
                 jnp.where(steps >= max_steps, Status.MAX_STEPS.value, -1),
             ),
         )
-        return LoopState(
+        new = s._replace(
             z=z,
             r=jnp.where(accept, rt, s.r),
             f=jnp.where(accept, ft, s.f),
@@ -253,10 +343,8 @@ def newton_machine(
             steps=steps,
             evals=s.evals + 1,
             status=status,
-            pending=s.pending,
-            r_trial=s.r_trial,
-            f_trial=s.f_trial,
         )
+        return watch(s, new, accept)
 
     def search_step(s: LoopState) -> LoopState:
         return update(jax.lax.while_loop(searching, trial, s))
@@ -284,6 +372,13 @@ def newton_machine(
             pending=jnp.asarray(False),
             r_trial=jnp.zeros(n),
             f_trial=jnp.asarray(jnp.inf),
+            free=jnp.asarray(free_steps),
+            best_z=z0,
+            best_r=jnp.zeros(n),
+            best_f=jnp.asarray(jnp.inf),
+            best_jac=jnp.eye(n),
+            best_dz=jnp.zeros(n),
+            best_lm=jnp.asarray(False),
         )
 
     def finish(out: LoopState) -> LoopState:
@@ -301,20 +396,24 @@ def newton_loop(
     load: Load,
     settings: Array,
     line_search_loop: bool = False,
+    free_steps: int = 0,
+    axis_name: str | None = None,
 ) -> LoopState:
     """Pure (jit/vmap-able) globalised Newton iteration (:func:`newton_machine`): Newton steps
     with an Armijo line search on ½‖r‖² that falls back to Levenberg–Marquardt steps with
     growing damping; one residual evaluation site (the line search) and one Jacobian
     evaluation site (the accepted point), so that the compiled graph is small.
     """
-    init, body, cond, finish = newton_machine(layout, params, load, settings, line_search_loop)
+    init, body, cond, finish = newton_machine(
+        layout, params, load, settings, line_search_loop, free_steps, axis_name
+    )
     return finish(jax.lax.while_loop(cond, body, init(z0)))
 
 
 @functools.lru_cache(maxsize=64)
-def compiled_loop(layout: TubeLayout) -> Any:
-    """The jitted Newton loop of a layout (built once)."""
-    return jax.jit(functools.partial(newton_loop, layout))
+def compiled_loop(layout: TubeLayout, free_steps: int = 0) -> Any:
+    """The jitted Newton loop of a layout and watchdog length (built once)."""
+    return jax.jit(functools.partial(newton_loop, layout, free_steps=free_steps))
 
 
 @dataclass(frozen=True)
@@ -449,7 +548,7 @@ def solve_equilibrium(
     if not isinstance(load, Load):
         raise ConfigError("load", load, "a biplan Load (Load.of_force / Load.of_displacement)")
     z0 = _start_vector(model, model.zeros() if start is None else start)
-    loop = compiled_loop(model.layout)
+    loop = compiled_loop(model.layout, solver.free_steps)
     jload = Load(*(jnp.asarray(float(v)) for v in load))
     out = loop(model.params, jnp.asarray(z0), jload, solver.settings())
     status = Status(int(out.status))

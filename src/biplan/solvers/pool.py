@@ -32,6 +32,10 @@ __all__ = ["PoolResult", "newton_pool", "pool_kernel"]
 
 Array = Any
 
+#: Name of the lane (vmap) axis: Newton computes a Levenberg–Marquardt direction only when
+#: some lane needs one (``newton_machine(axis_name=...)``).
+LANES = "lanes"
+
 
 class PoolResult(NamedTuple):
     """Per task (leading axis: task, padded): final iterate, status (Status value; −1 for
@@ -77,7 +81,7 @@ def newton_pool(
     def parts(task: Array) -> tuple:
         p = jax.tree_util.tree_map(lambda a: a[point[task]], params)
         load = Load(*(jnp.asarray(v)[task] for v in loads))
-        return newton_machine(layout, p, load, settings, line_search_loop=True)
+        return newton_machine(layout, p, load, settings, line_search_loop=True, axis_name=LANES)
 
     def init_lane(task: Array) -> Any:
         return parts(task)[0](z0[task])
@@ -108,7 +112,7 @@ def newton_pool(
         tasks, state, nxt, out = c
         active = tasks >= 0
         safe = jnp.clip(tasks, 0, n_total - 1)
-        state, running, fin = jax.vmap(step_lane)(safe, state)
+        state, running, fin = jax.vmap(step_lane, axis_name=LANES)(safe, state)
         done = active & ~running
         idx = jnp.where(done, tasks, n_total)  # out of range: dropped
         out = PoolResult(
