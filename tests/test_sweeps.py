@@ -260,7 +260,7 @@ def test_non_converged_points_have_status_and_nan(design) -> None:
 
 def test_ramp_settings_are_checked() -> None:
     for bad in (-1, 1.5, True):
-        with pytest.raises(ConfigError, match="ramp.free_steps"):
+        with pytest.raises(ConfigError, match=r"ramp\.free_steps"):
             ForceRamp(free_steps=bad)
     assert ForceRamp(free_steps=0).newton().free_steps == 0
     assert ResponseEvaluator(ForceRamp(free_steps=3)).describe()["free_steps"] == 3
