@@ -14,6 +14,8 @@ In one process, for the semi-bistable paper design (6 modules):
   design's b (0.573, same layout), C ∈ [0.5, 3.0], U/l₀ ∈ [0.01, 0.4], chunks of whole rows
   (``stability_chunk_size``, as the CLI); cold (a two-point row: fixed-seed and march kernels
   compile) and warm;
+* threads — the same design and stability maps with the chunks on ``--threads`` threads of
+  this process (``thread_runner``, the CLI's default on a multi-core machine), warm;
 * Dask — the design map on a ``--dask`` × ``--dask`` grid with a loopback ``LocalCluster`` of 1
   and of 2 workers (kernels compiled in the workers before timing), speed-up.
 
@@ -32,7 +34,7 @@ import numpy as np
 
 import biplan
 from biplan.analysis.design_map import ResponseEvaluator, response_point
-from biplan.analysis.scaleout import dask_runner
+from biplan.analysis.scaleout import dask_runner, thread_runner
 from biplan.analysis.stability_map import StabilityEvaluator, stability_chunk_size
 from biplan.analysis.sweeps import Grid, apply_values, sweep
 
@@ -58,7 +60,9 @@ def main() -> None:
     ap.add_argument("--dask", type=int, default=12, help="Dask comparison grid n (n × n)")
     ap.add_argument("--chunk-size", type=int, default=16, help="points per chunk/batch")
     ap.add_argument("--baseline", type=int, default=6, help="points of the scalar loop")
+    ap.add_argument("--threads", type=int, default=2, help="threads of the threaded runs")
     ap.add_argument("--skip-dask", action="store_true")
+    ap.add_argument("--skip-sequential", action="store_true", help="threaded runs only")
     args = ap.parse_args()
     print(f"cpus: {os.cpu_count()}, load average: {os.getloadavg()}")
     design = biplan.designs.semi_bistable()
@@ -68,18 +72,25 @@ def main() -> None:
     n = args.design
     grid = Grid.of(b=np.linspace(0.40, 0.57, n), C=np.linspace(0.5, 3.0, n))
     small = Grid.of(b=[0.45], C=[1.0])
+    threads = thread_runner(args.threads)
     cold, _ = _timed(lambda: sweep(design, small, ev, chunk_size=cs))
-    warm, ds = _timed(lambda: sweep(design, grid, ev, chunk_size=cs))
-    _report("design map", grid.size, cold, warm, 2500, 60.0)
+    seq = None
+    if not args.skip_sequential:
+        seq, ds = _timed(lambda: sweep(design, grid, ev, chunk_size=cs))
+        _report("design map", grid.size, cold, seq, 2500, 60.0)
+        print(f"  failed points: {ds.attrs['n_failed']}")
+    warm, ds = _timed(lambda: sweep(design, grid, ev, chunk_size=cs, runner=threads))
+    _report(f"design map, {args.threads} threads", grid.size, cold, warm, 2500, 60.0)
     print(f"  failed points: {ds.attrs['n_failed']}")
 
     pts = [grid.point(i) for i in np.linspace(0, grid.size - 1, args.baseline).astype(int)]
     response_point(apply_values(design, pts[0]))  # compile
     t_loop, _ = _timed(lambda: [response_point(apply_values(design, p)) for p in pts])
     loop_rate = len(pts) / t_loop
+    which, t_map = ("sequential", seq) if seq is not None else (f"{args.threads} threads", warm)
     print(
         f"scalar loop (response_point): {loop_rate:.2f} points/s; "
-        f"batched/scalar = {grid.size / warm / loop_rate:.1f}x"
+        f"batched ({which})/scalar = {grid.size / t_map / loop_rate:.1f}x"
     )
 
     m = args.stability
@@ -88,11 +99,13 @@ def main() -> None:
     scs = stability_chunk_size(m)  # whole rows, as the CLI
     cold, _ = _timed(lambda: sweep(design, Grid.of(C=[1.0], displacement=[0.1, 0.2]), sev,
                                    chunk_size=scs))  # fmt: skip
-    warm, sds = _timed(lambda: sweep(design, sgrid, sev, chunk_size=scs))
-    _report("stability map", sgrid.size, cold, warm, 1600, 120.0)
-    counts = {k: int((sds["regime"].values == v).sum()) for k, v in (("mono", 1), ("bi", 2),
-              ("multi", 3))}  # fmt: skip
-    print(f"  regimes: {counts}, transition band: {int(sds['transition'].sum())} points")
+    runs = [("stability map", None)] if not args.skip_sequential else []
+    for name, runner in [*runs, (f"stability map, {args.threads} threads", threads)]:
+        warm, sds = _timed(lambda r=runner: sweep(design, sgrid, sev, chunk_size=scs, runner=r))
+        _report(name, sgrid.size, cold, warm, 1600, 120.0)
+        counts = {k: int((sds["regime"].values == v).sum()) for k, v in (("mono", 1), ("bi", 2),
+                  ("multi", 3))}  # fmt: skip
+        print(f"  regimes: {counts}, transition band: {int(sds['transition'].sum())} points")
 
     if args.skip_dask:
         return

@@ -80,6 +80,16 @@ def test_bad_grid_exits_with_the_parameter_named(
     assert "invalid" in err and needle in err
 
 
+def test_negative_threads_exit_with_the_option_named(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    args = ["map", "design", str(CONFIG), "--b", "0.5", "--C", "1", "--threads", "-1"]
+    assert _run([*args, "--out", str(tmp_path / "x"), "--quiet"]) == EXIT_BIPLAN_ERROR
+    err = capsys.readouterr().err
+    assert "--threads" in err and "-1" in err
+    assert not (tmp_path / "x").exists()  # refused before anything was written
+
+
 def test_stability_map_cli(tmp_path: Path) -> None:
     out = tmp_path / "stab"
     args = ["map", "stability", str(CONFIG), "--displacement", "0.02,0.2", "--C", "1.0"]

@@ -7,12 +7,14 @@ semi-bistable layout of ``model6``); the grids stay at b < 0.578 where the layou
 
 from __future__ import annotations
 
+import time
 from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
 import pytest
 
+import biplan
 from biplan import ConfigError, LinearLaw, TrilinearLaw
 from biplan.analysis.design_map import ForceRamp, ResponseEvaluator, response_point
 from biplan.analysis.stability_map import (
@@ -214,6 +216,44 @@ def test_dask_local_cluster_gives_the_in_process_map(design, grid, design_map) -
     assert done[-1] == grid.size
     for name in ("u_z", "u_r", "min_eigenvalue", "status"):
         assert np.allclose(ds[name].values, design_map[name].values, rtol=1e-12, atol=0), name
+
+
+def test_thread_runner_gives_the_sequential_map_bit_for_bit(design, grid, design_map) -> None:
+    """Chunks on two threads of this process (the CLI's default on a multi-core machine)."""
+    from biplan.analysis.scaleout import thread_runner
+
+    done: list[int] = []
+    ds = sweep(
+        design, grid, ResponseEvaluator(), chunk_size=BATCH, runner=thread_runner(2),
+        progress=lambda k, n: done.append(k),
+    )  # fmt: skip
+    assert done[-1] == grid.size
+    for name in ("u_z", "u_r", "min_eigenvalue", "stability_lost", "status"):
+        assert np.array_equal(ds[name].values, design_map[name].values, equal_nan=True), name
+    with pytest.raises(ConfigError, match="threads"):
+        thread_runner(0)
+
+
+def test_thread_runner_stops_when_the_consumer_stops() -> None:
+    """Closing the iteration (an interrupted sweep) cancels the chunks not yet started."""
+    from biplan.analysis.scaleout import thread_runner
+
+    calls: list[int] = []
+
+    @dataclass(frozen=True)
+    class _Counting(_Flaky):
+        def evaluate(self, tubes, loads, batch):  # type: ignore[no-untyped-def]
+            calls.append(len(tubes))
+            time.sleep(0.05)  # so that the pool cannot finish every chunk before close()
+            return {"value": np.zeros(len(tubes)), "status": np.zeros(len(tubes), np.int64)}
+
+    design = biplan.designs.semi_bistable()
+    g = Grid.of(C=np.linspace(1.0, 2.0, 40))
+    todo = [(k, np.arange(k, k + 1)) for k in range(40)]
+    it = thread_runner(1)(design, g, _Counting(), todo, 1)
+    next(it), next(it)
+    it.close()
+    assert len(calls) < 40
 
 
 # --- failures ---------------------------------------------------------------------------------

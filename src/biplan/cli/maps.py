@@ -7,8 +7,10 @@
   number of stable equilibria over (C, U/l₀) at fixed ``--b`` (default 0.58);
 * ``biplan map plot DIR`` — the figures of a finished map (``DIR/*.png``).
 
-Chunks run in this process (``--workers 1``, default), on a loopback Dask ``LocalCluster``
-(``--workers N``, N > 1) or on a user's scheduler (``--scheduler ADDRESS``). Finished chunks are
+Chunks run in this process (``--workers 1``, default) on ``--threads`` threads (default 0:
+one per available core; chunks run concurrently, the kernels compiled once), on a loopback
+Dask ``LocalCluster`` (``--workers N``, N > 1) or on a user's scheduler (``--scheduler
+ADDRESS``). Finished chunks are
 stored under ``DIR/chunks``; ``--resume`` continues a killed run without recomputing them. The
 merged map is ``DIR/map.nc`` (netCDF, attributes hold the configuration and settings).
 """
@@ -38,6 +40,10 @@ _Workers = Annotated[int, typer.Option(help="Worker processes (1: in this proces
 _Scheduler = Annotated[
     str | None, typer.Option(help="Dask scheduler address of an existing cluster.")
 ]
+_Threads = Annotated[
+    int,
+    typer.Option(help="In-process threads running chunks (0: one per available core)."),
+]
 _Resume = Annotated[bool, typer.Option("--resume", help="Continue a killed run in --out.")]
 _Chunk = Annotated[int, typer.Option(help="Points per chunk (and per compiled batch).")]
 _Quiet = Annotated[bool, typer.Option("--quiet", "-q", help="No progress bar or summary.")]
@@ -53,9 +59,14 @@ def run_map(
     resume: bool = False,
     workers: int = 1,
     scheduler: str | None = None,
+    threads: int = 0,
     quiet: bool = False,
 ) -> Any:
     """Run a sweep into ``out`` (chunk store + ``map.nc``) with a Rich progress bar."""
+    from biplan import ConfigError
+
+    if isinstance(threads, bool) or not isinstance(threads, int) or threads < 0:
+        raise ConfigError("--threads", threads, "an integer ≥ 0 (0: one per available core)")
     from rich.progress import (
         BarColumn,
         MofNCompleteColumn,
@@ -65,7 +76,7 @@ def run_map(
         TimeRemainingColumn,
     )
 
-    from biplan.analysis.scaleout import dask_runner
+    from biplan.analysis.scaleout import available_cores, dask_runner, thread_runner
     from biplan.analysis.sweeps import chunk_indices, sweep
     from biplan.io.config import dump_config
     from biplan.io.sweepstore import ChunkStore, save_map
@@ -80,8 +91,11 @@ def run_map(
     n_chunks = len(chunk_indices(grid, chunk_size))
     store = ChunkStore(out, description, n_chunks, resume)
     runner = None
+    n_threads = threads or min(available_cores(), n_chunks)
     if scheduler is not None or workers > 1:
         runner = dask_runner(scheduler, workers)
+    elif n_threads > 1:
+        runner = thread_runner(n_threads)
     console = Console(quiet=quiet or not sys.stderr.isatty(), stderr=True)
     start = time.perf_counter()
     first: list[int] = []
@@ -130,6 +144,7 @@ def design(
     chunk_size: _Chunk = 16,
     workers: _Workers = 1,
     scheduler: _Scheduler = None,
+    threads: _Threads = 0,
     resume: _Resume = False,
     quiet: _Quiet = False,
 ) -> None:
@@ -142,7 +157,7 @@ def design(
     grid = Grid((parse_axis("b", b), parse_axis("C", c)))
     ev = ResponseEvaluator(ForceRamp(rate=rate, duration=duration, n_steps=steps))
     run_map(tube, grid, ev, out, chunk_size=chunk_size, resume=resume, workers=workers,
-            scheduler=scheduler, quiet=quiet)  # fmt: skip
+            scheduler=scheduler, threads=threads, quiet=quiet)  # fmt: skip
 
 
 @app.command("stability")
@@ -161,6 +176,7 @@ def stability(
     ] = None,
     workers: _Workers = 1,
     scheduler: _Scheduler = None,
+    threads: _Threads = 0,
     resume: _Resume = False,
     quiet: _Quiet = False,
 ) -> None:
@@ -179,7 +195,7 @@ def stability(
     ev = StabilityEvaluator(StabilitySearch(max_equilibria=max_equilibria))
     size = chunk_size or stability_chunk_size(grid.shape[1])
     ds = run_map(tube, grid, ev, out, chunk_size=size, resume=resume, workers=workers,
-                 scheduler=scheduler, quiet=True)  # fmt: skip
+                 scheduler=scheduler, threads=threads, quiet=True)  # fmt: skip
     if not quiet:
         counts = {k: int((ds["regime"].values == v).sum()) for k, v in
                   (("mono", 1), ("bi", 2), ("multi", 3))}  # fmt: skip
