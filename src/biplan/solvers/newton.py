@@ -115,6 +115,10 @@ class LoopState(NamedTuple):
     best_lm: Array
 
 
+#: The fields of the iterate that the watchdog keeps for its best point (``best_<name>``).
+_WATCHED = ("z", "r", "f", "jac", "dz", "lm")
+
+
 def newton_machine(
     layout: TubeLayout,
     params: Any,
@@ -201,38 +205,13 @@ def newton_machine(
         free = prev.free - used.astype(prev.free.dtype)
         better = accepted & (new.f < prev.best_f)
 
-        def keep(a: Array, b: Array) -> Array:
-            return jnp.where(better, a, b)
-
-        best = (
-            keep(new.z, prev.best_z),
-            keep(new.r, prev.best_r),
-            keep(new.f, prev.best_f),
-            keep(new.jac, prev.best_jac),
-            keep(new.dz, prev.best_dz),
-            keep(new.lm, prev.best_lm),
-        )
-        out = new._replace(
-            free=free,
-            best_z=best[0],
-            best_r=best[1],
-            best_f=best[2],
-            best_jac=best[3],
-            best_dz=best[4],
-            best_lm=best[5],
-        )
+        best = {k: jnp.where(better, getattr(new, k), getattr(prev, f"best_{k}")) for k in _WATCHED}
+        out = new._replace(free=free, **{f"best_{k}": v for k, v in best.items()})
         # spent without convergence (also at the step limit: a failed solve returns its best)
         unconverged = new.status != Status.CONVERGED.value
-        revert = used & (free == 0) & unconverged & (best[2] < new.f)
+        revert = used & (free == 0) & unconverged & (best["f"] < new.f)
         back = out._replace(
-            z=best[0],
-            r=best[1],
-            f=best[2],
-            jac=best[3],
-            dz=best[4],
-            lm=best[5],
-            slope=best[1] @ (best[3] @ best[4]),
-            alpha=jnp.asarray(1.0),
+            **best, slope=best["r"] @ (best["jac"] @ best["dz"]), alpha=jnp.asarray(1.0)
         )
         return jax.tree_util.tree_map(lambda a, b: jnp.where(revert, a, b), back, out)
 
