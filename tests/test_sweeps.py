@@ -254,6 +254,11 @@ def test_thread_runner_stops_when_the_consumer_stops() -> None:
     next(it), next(it)
     it.close()
     assert len(calls) < 40
+    from biplan.analysis.scaleout import dask_runner, process_runner
+
+    for make in (dask_runner, process_runner):  # refused before any process starts
+        with pytest.raises(ConfigError, match="workers"):
+            make(n_workers=0)
 
 
 # --- failures ---------------------------------------------------------------------------------

@@ -73,3 +73,11 @@ def check_range(
     if high is not None and (x > high or (high_open and x == high)):
         raise ConfigError(name, value, interval)
     return x
+
+
+def check_integer(name: str, value: int, *, low: int, note: str = "") -> int:
+    """Return ``value`` if it is an integer (not a bool) ≥ ``low``, else raise
+    :class:`ConfigError` naming ``name`` (``note`` is appended to the valid range)."""
+    if isinstance(value, bool) or not isinstance(value, int) or value < low:
+        raise ConfigError(name, value, f"an integer ≥ {low}{note}")
+    return value

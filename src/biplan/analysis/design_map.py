@@ -32,7 +32,7 @@ from typing import Any
 import numpy as np
 
 from biplan import _linalg as linalg
-from biplan._errors import ConfigError, check_range
+from biplan._errors import ConfigError, check_integer, check_range
 from biplan._jax import jax, jnp
 from biplan.assembly import (
     Load,
@@ -100,9 +100,7 @@ class ForceRamp:
         n = self.n_steps
         if isinstance(n, bool) or not isinstance(n, int) or not 2 <= n <= 512:
             raise ConfigError("ramp.n_steps", n, "an integer in [2, 512]")
-        f = self.free_steps
-        if isinstance(f, bool) or not isinstance(f, int) or f < 0:
-            raise ConfigError("ramp.free_steps", f, "an integer ≥ 0")
+        check_integer("ramp.free_steps", self.free_steps, low=0)
         self.newton()
 
     @property
@@ -138,7 +136,7 @@ def _chord(layout: TubeLayout, p: Any, z: Array, jac: Array, load: Load, atol: A
     Jacobian there (for the stability test and the next step's chord)."""
     lu, piv = linalg.lu_factor(jac)
 
-    def norm(zc: Array) -> Array:
+    def residual_and_norm(zc: Array) -> tuple[Array, Array]:
         r = residual(layout, p, zc, load)
         return r, jnp.where(jnp.all(jnp.isfinite(r)), jnp.max(jnp.abs(r)), jnp.inf)
 
@@ -150,11 +148,11 @@ def _chord(layout: TubeLayout, p: Any, z: Array, jac: Array, load: Load, atol: A
         k, zc, r, best, best_norm, _ = c
         dz = linalg.lu_solve(lu, piv, -r)
         zn = jnp.where(jnp.all(jnp.isfinite(dz)), zc + dz, zc)
-        rn, nn = norm(zn)
+        rn, nn = residual_and_norm(zn)
         take = nn < best_norm
         return k + 1, zn, rn, jnp.where(take, zn, best), jnp.where(take, nn, best_norm), nn
 
-    r0, n0 = norm(z)
+    r0, n0 = residual_and_norm(z)
     init = (jnp.asarray(0), z, r0, z, n0, n0)
     return jax.lax.while_loop(cond, step, init)[3]
 

@@ -25,7 +25,7 @@ from typing import Any
 
 import numpy as np
 
-from biplan._errors import ConfigError
+from biplan._errors import ConfigError, check_integer
 from biplan.analysis.sweeps import Evaluator, Grid, evaluate_chunk
 from biplan.geometry import Tube
 
@@ -33,12 +33,6 @@ __all__ = ["Runner", "available_cores", "dask_runner", "process_runner", "thread
 
 Todo = list[tuple[int, np.ndarray]]
 Runner = Callable[[Tube, Grid, Evaluator, Todo, int], Iterator[tuple[int, dict[str, np.ndarray]]]]
-
-
-def _check_workers(n_workers: int, name: str = "workers") -> int:
-    if isinstance(n_workers, bool) or not isinstance(n_workers, int) or n_workers < 1:
-        raise ConfigError(name, n_workers, "an integer ≥ 1")
-    return n_workers
 
 
 def _warm(design: Tube, grid: Grid, evaluator: Evaluator, batch: int) -> bool:
@@ -81,6 +75,25 @@ def available_cores() -> int:
     return len(_available_cores())
 
 
+def _on_executor(
+    pool: Any, design: Tube, grid: Grid, evaluator: Evaluator, todo: Todo, batch: int
+) -> Iterator[tuple[int, dict[str, np.ndarray]]]:
+    """Submit every chunk of ``todo`` to the ``concurrent.futures`` executor ``pool`` and
+    yield results as they finish; on exit (also when the caller stops iterating) the chunks
+    not yet started are cancelled and the pool is shut down."""
+    from concurrent.futures import as_completed
+
+    try:
+        futures = {
+            pool.submit(evaluate_chunk, design, grid, evaluator, idx, batch): cid
+            for cid, idx in todo
+        }
+        for fut in as_completed(futures):
+            yield futures[fut], fut.result()
+    finally:
+        pool.shutdown(wait=True, cancel_futures=True)
+
+
 def thread_runner(n_threads: int = 2) -> Runner:
     """Run chunks on ``n_threads`` threads of this process.
 
@@ -90,50 +103,37 @@ def thread_runner(n_threads: int = 2) -> Runner:
     evaluators are thread-safe (a test checks the map bit for bit against the sequential
     one); a custom evaluator must be too.
     """
-    _check_workers(n_threads, "threads")
+    check_integer("threads", n_threads, low=1)
 
     def run(
         design: Tube, grid: Grid, evaluator: Evaluator, todo: Todo, batch: int
     ) -> Iterator[tuple[int, dict[str, np.ndarray]]]:
-        from concurrent.futures import ThreadPoolExecutor, as_completed
+        from concurrent.futures import ThreadPoolExecutor
 
         if not todo:
             return
         cid, idx = todo[0]
         yield cid, evaluate_chunk(design, grid, evaluator, idx, batch)
         pool = ThreadPoolExecutor(n_threads, thread_name_prefix="biplan-sweep")
-        try:
-            futures = {
-                pool.submit(evaluate_chunk, design, grid, evaluator, idx, batch): cid
-                for cid, idx in todo[1:]
-            }
-            for fut in as_completed(futures):
-                yield futures[fut], fut.result()
-        finally:
-            pool.shutdown(wait=True, cancel_futures=True)
+        yield from _on_executor(pool, design, grid, evaluator, todo[1:], batch)
 
     return run
 
 
 def process_runner(n_workers: int = 2) -> Runner:
     """Run chunks in a ``ProcessPoolExecutor`` of ``n_workers`` processes (spawned)."""
-    _check_workers(n_workers)
+    check_integer("workers", n_workers, low=1)
 
     def run(
         design: Tube, grid: Grid, evaluator: Evaluator, todo: Todo, batch: int
     ) -> Iterator[tuple[int, dict[str, np.ndarray]]]:
         import multiprocessing as mp
-        from concurrent.futures import ProcessPoolExecutor, as_completed
+        from concurrent.futures import ProcessPoolExecutor
 
         if not todo:
             return
-        with ProcessPoolExecutor(n_workers, mp_context=mp.get_context("spawn")) as pool:
-            futures = {
-                pool.submit(evaluate_chunk, design, grid, evaluator, idx, batch): cid
-                for cid, idx in todo
-            }
-            for fut in as_completed(futures):
-                yield futures[fut], fut.result()
+        pool = ProcessPoolExecutor(n_workers, mp_context=mp.get_context("spawn"))
+        yield from _on_executor(pool, design, grid, evaluator, todo, batch)
 
     return run
 
@@ -163,7 +163,7 @@ def dask_runner(
         worker i to its own core (see :func:`_pin_process`; Linux). A single worker is left
         free to use every core.
     """
-    _check_workers(n_workers)
+    check_integer("workers", n_workers, low=1)
     try:
         from dask.distributed import Client, LocalCluster, as_completed
     except ImportError:  # pragma: no cover - dask is a core dependency

@@ -63,10 +63,9 @@ def run_map(
     quiet: bool = False,
 ) -> Any:
     """Run a sweep into ``out`` (chunk store + ``map.nc``) with a Rich progress bar."""
-    from biplan import ConfigError
+    from biplan._errors import check_integer
 
-    if isinstance(threads, bool) or not isinstance(threads, int) or threads < 0:
-        raise ConfigError("--threads", threads, "an integer ≥ 0 (0: one per available core)")
+    check_integer("--threads", threads, low=0, note=" (0: one per available core)")
     from rich.progress import (
         BarColumn,
         MofNCompleteColumn,

@@ -17,7 +17,7 @@ from typing import Any, NamedTuple
 import numpy as np
 
 from biplan import _linalg as linalg
-from biplan._errors import ConfigError, ConvergenceError, check_range
+from biplan._errors import ConfigError, ConvergenceError, check_integer, check_range
 from biplan._jax import jax, jnp
 from biplan.assembly import Load, Model, StateData, TubeLayout, kernels
 
@@ -82,9 +82,7 @@ class Newton:
             v = getattr(self, name)
             if isinstance(v, bool) or not isinstance(v, int) or v < 1:
                 raise ConfigError(f"Newton.{name}", v, "an integer ≥ 1")
-        f = self.free_steps
-        if isinstance(f, bool) or not isinstance(f, int) or f < 0:
-            raise ConfigError("Newton.free_steps", f, "an integer ≥ 0")
+        check_integer("Newton.free_steps", self.free_steps, low=0)
 
     def settings(self) -> Array:
         return jnp.asarray([self.atol, self.max_steps, self.max_backtracks, self.armijo])
