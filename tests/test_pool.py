@@ -9,7 +9,7 @@ import pytest
 from biplan import _linalg as linalg
 from biplan._jax import jax, jnp
 from biplan.assembly import Load, contact_gaps, kkt_jacobian
-from biplan.solvers.newton import Newton, Status, newton_loop
+from biplan.solvers.newton import Newton, Status, compiled_loop, newton_loop
 from biplan.solvers.observe import kkt_min_eigenvalue, observe
 from biplan.solvers.pool import newton_pool
 
@@ -72,9 +72,10 @@ def test_pool_equals_one_newton_loop_per_task(tasks) -> None:
     assert conv.sum() >= n // 2
     assert np.allclose(np.asarray(out.z)[:n][conv], np.asarray(ref.z)[conv], rtol=0, atol=1e-12)
     # the default one-pass driver visits the same trial points: same solutions
+    loop = compiled_loop(m.layout)
     for i in np.flatnonzero(conv)[::4]:
         load = Load(jnp.asarray(0.0), jnp.asarray(uu[i]), jnp.asarray(1.0))
-        sol = newton_loop(m.layout, m.params, jnp.asarray(z0[i]), load, settings)
+        sol = loop(m.params, jnp.asarray(z0[i]), load, settings)
         assert int(sol.status) == Status.CONVERGED.value
         assert np.allclose(np.asarray(sol.z), np.asarray(ref.z)[i], rtol=0, atol=1e-9)
 
@@ -84,16 +85,22 @@ def test_stability_from_the_kkt_jacobian_equals_the_fresh_hessian(tasks) -> None
     Jacobian evaluated afresh), at converged equilibria of both signs of λ_min."""
     m, z0, uu = tasks
     settings = Newton().settings()
+    loop = compiled_loop(m.layout)
+
+    @jax.jit
+    def both(params, z, load):  # the two λ_min of one converged state, compiled once
+        q = z[: m.n_coordinates]
+        jac = kkt_jacobian(m.layout, params, z, load)
+        lam = kkt_min_eigenvalue(m.layout, z, jac, contact_gaps(m.layout, params, q), load)
+        return lam, observe(m.layout, params, z, load).min_eigenvalue
+
     lams = []
     for z, u in zip(z0[::3], uu[::3], strict=True):
         load = Load(jnp.asarray(0.0), jnp.asarray(u), jnp.asarray(1.0))
-        sol = newton_loop(m.layout, m.params, jnp.asarray(z), load, settings)
+        sol = loop(m.params, jnp.asarray(z), load, settings)
         if int(sol.status) != Status.CONVERGED.value:
             continue
-        q = sol.z[: m.n_coordinates]
-        jac = kkt_jacobian(m.layout, m.params, sol.z, load)
-        lam = kkt_min_eigenvalue(m.layout, sol.z, jac, contact_gaps(m.layout, m.params, q), load)
-        ref = observe(m.layout, m.params, sol.z, load).min_eigenvalue
+        lam, ref = both(m.params, sol.z, load)
         assert float(lam) == pytest.approx(float(ref), rel=1e-8, abs=1e-10)
         lams.append(float(ref))
     assert len(lams) >= 3

@@ -309,6 +309,59 @@ def test_ramp_settings_are_checked() -> None:
             ForceRamp(free_steps=bad)
     assert ForceRamp(free_steps=0).newton().free_steps == 0
     assert ResponseEvaluator(ForceRamp(free_steps=3)).describe()["free_steps"] == 3
+    with pytest.raises(ConfigError, match=r"ramp\.after_snap.*dynamic or stop"):
+        ForceRamp(after_snap="jump")
+    for name, bad in (("damping_ratio", 1.0), ("damping_ratio", 0.0), ("time_step", -0.01)):
+        with pytest.raises(ConfigError, match=rf"ramp\.{name}"):
+            ForceRamp(**{name: bad})
+
+
+# --- a ramp past the fold capacity: the snap is finished dynamically --------------------------
+def test_ramp_past_the_fold_capacity_is_finished_dynamically(model1) -> None:
+    """One module on its base circular fold (capacity k1·w1·H ≈ 2.26 N), ramped to 3 N: the
+    quasi-static steps fail past the limit point. ``after_snap="stop"`` records that;
+    ``"dynamic"`` integrates the rest of the ramp and ends on the open branch, at rest in a
+    stable equilibrium at F_f (checked by a static solve), equal to the scalar reference."""
+    grid = Grid.of(C=[0.5, 3.0])
+    ramp = {"rate": 1.5, "duration": 2.0, "n_steps": 16}
+    stop = sweep(model1.tube, grid, ResponseEvaluator(ForceRamp(**ramp, after_snap="stop")),
+                 chunk_size=BATCH)  # fmt: skip
+    assert (stop["status"].values == STATUS["not_converged"]).all()
+    assert np.isnan(stop["u_z"].values).all() and (stop["dynamic"].values == 0).all()
+    t_lost = stop["time_lost"].values
+    assert (1.5 * t_lost > 2.0).all() and (1.5 * t_lost <= 2.26 + 1.5 * 2.0 / 16).all()
+    dyn = sweep(model1.tube, grid, ResponseEvaluator(ForceRamp(**ramp)), chunk_size=BATCH)
+    assert (dyn["status"].values == STATUS["ok"]).all() and (dyn["dynamic"].values == 1).all()
+    assert (dyn["stability_lost"].values == 1).all()
+    np.testing.assert_array_equal(dyn["time_lost"].values, t_lost)
+    l0 = model1.tube.initial_length
+    u_open = dyn["u_z"].values * l0
+    assert (u_open > 1.3).all(), "the base fold must end past its second breakpoint w2 = 1.3 mm"
+    assert dyn["min_eigenvalue"].values.min() > 0
+    # the terminal state: a stable static equilibrium at F_f with the fold open
+    tube = apply_values(model1.tube, {"C": 3.0})
+    ref = response_point(tube, ForceRamp(**ramp))
+    for key in ("u_z", "u_r", "min_eigenvalue"):
+        assert dyn[key].values[1] == pytest.approx(ref[key], rel=1e-7, abs=1e-12)
+    assert ref["status"] == 0 and ref["dynamic"] == 1
+    from biplan.analysis.ramp_dynamics import continue_ramp
+
+    model = biplan.Model(tube)
+    dt = 2.0 / 16
+    k = round(float(t_lost[1]) / dt) - 1  # the last converged load step
+    last = None
+    for f in 1.5 * dt * np.arange(k + 1):  # the quasi-static steps, one Newton solve each
+        last = biplan.solve_equilibrium(model, None, last, biplan.Load.of_force(f))
+        assert last.converged
+    traj = continue_ramp(model, last.z, k * dt, rate=1.5, duration=2.0,
+                         damping_ratio=0.05, time_step=0.01)  # fmt: skip
+    assert traj.completed and traj.force[-1] == pytest.approx(3.0)
+    assert traj.u_z[-1] / l0 == pytest.approx(dyn["u_z"].values[1], rel=1e-6)
+    static = biplan.solve_equilibrium(model, None, traj.z[-1], biplan.Load.of_force(3.0))
+    assert static.converged
+    np.testing.assert_allclose(static.q, traj.q[-1], atol=1e-5)
+    assert biplan.classify(model, static).verdict is biplan.Verdict.STABLE
+    assert traj.phase_fraction[-1, model.layout.n_modules, 2] > 0.5  # the base fold: open
 
 
 # --- the stability map ------------------------------------------------------------------------

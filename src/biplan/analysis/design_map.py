@@ -34,6 +34,7 @@ import numpy as np
 from biplan import _linalg as linalg
 from biplan._errors import ConfigError, check_integer, check_range
 from biplan._jax import jax, jnp
+from biplan.analysis.ramp_dynamics import continue_ramp
 from biplan.assembly import (
     Load,
     Model,
@@ -51,6 +52,10 @@ from biplan.solvers.observe import kkt_min_eigenvalue, observe_batch
 __all__ = ["ForceRamp", "ResponseEvaluator", "response_point", "stack_params"]
 
 Array = Any
+
+
+#: Readings of a failed load step (a passed limit point): see ``ForceRamp.after_snap``.
+AFTER_SNAP = ("dynamic", "stop")
 
 
 @dataclass(frozen=True)
@@ -80,6 +85,18 @@ class ForceRamp:
         steps without the line-search test, falling back to the best iterate. The first load
         steps open the contacts that all touch in the reference (gap 0); there the line search
         rejects full semismooth-Newton steps that converge (docs/maps.md). ≥ 0.
+    after_snap : {"dynamic", "stop"}
+        What a design does when a load step fails (a force limit point was passed: no nearby
+        equilibrium). ``"dynamic"`` (default; the paper's maps are the dynamic response):
+        the rest of the ramp is integrated with the generalized-α scheme from the last
+        equilibrium (:mod:`biplan.analysis.ramp_dynamics`) and the terminal state is the
+        post-snap one (``dynamic`` = 1 in the map). ``"stop"``: the point ends there with
+        status ``not_converged`` and NaN terminal values.
+    damping_ratio : float
+        ζ of the first mode (at half the last converged force) for the Rayleigh damping of
+        the dynamic finish, in (0, 1).
+    time_step : float
+        Nominal generalized-α step h [s] of the dynamic finish, > 0.
     """
 
     rate: float = 0.8
@@ -90,6 +107,9 @@ class ForceRamp:
     max_steps: int = 60
     max_backtracks: int = 12
     free_steps: int = 8
+    after_snap: str = "dynamic"
+    damping_ratio: float = 0.05
+    time_step: float = 0.01
 
     def __post_init__(self) -> None:
         r = check_range("ramp.rate", self.rate)
@@ -101,6 +121,10 @@ class ForceRamp:
         if isinstance(n, bool) or not isinstance(n, int) or not 2 <= n <= 512:
             raise ConfigError("ramp.n_steps", n, "an integer in [2, 512]")
         check_integer("ramp.free_steps", self.free_steps, low=0)
+        if self.after_snap not in AFTER_SNAP:
+            raise ConfigError("ramp.after_snap", self.after_snap, " or ".join(AFTER_SNAP))
+        check_range("ramp.damping_ratio", self.damping_ratio, low=0.0, high=1.0)
+        check_range("ramp.time_step", self.time_step, low=0.0)
         self.newton()
 
     @property
@@ -243,7 +267,39 @@ def _summarise(
         "time_lost": np.where(lost_step >= 0, times[np.maximum(lost_step, 0)], nan),
         "min_eigenvalue": np.where(good, np.min(np.where(ok, lam, np.inf), axis=1), nan),
         "status": status,
+        "dynamic": np.zeros(n, dtype=np.int64),
     }
+
+
+def _finish_after_snap(
+    ramp: ForceRamp,
+    model: Model,
+    ok: np.ndarray,
+    lam: np.ndarray,
+    z_last: np.ndarray,
+    res: dict[str, np.ndarray],
+    row: int,
+) -> None:
+    """``after_snap = "dynamic"``: a point whose ramp failed after ≥ 1 converged step is
+    finished by :func:`continue_ramp` from its last equilibrium ``z_last``; ``res[...][row]``
+    is updated in place (terminal u_z/l₀, u_r/l₀, status; stability counts as lost at the
+    failed step; λ_min over the quasi-static equilibria and the terminal state)."""
+    if ramp.after_snap != "dynamic" or res["status"][row] == 0 or not ok[0]:
+        return
+    k = int(np.flatnonzero(ok)[-1])
+    traj = continue_ramp(
+        model, z_last, float(ramp.times[k]), rate=ramp.rate, duration=ramp.duration,
+        damping_ratio=ramp.damping_ratio, time_step=ramp.time_step,
+    )  # fmt: skip
+    res["dynamic"][row] = 1
+    if not traj.completed:
+        return
+    l0 = model.tube.initial_length
+    res["status"][row] = 0
+    res["u_z"][row] = traj.u_z[-1] / l0
+    res["u_r"][row] = traj.u_r[-1] / l0
+    res["stability_lost"][row] = 1.0
+    res["min_eigenvalue"][row] = min(float(np.min(lam[ok])), float(traj.min_eigenvalue[-1]))
 
 
 @dataclass(frozen=True)
@@ -262,6 +318,7 @@ class ResponseEvaluator:
             "time_lost": ((), "s", "first ramp time at which stability was lost"),
             "min_eigenvalue": ((), "N*mm", "smallest reduced-Hessian eigenvalue on the ramp"),
             "status": ((), "1", "0 ok; see flag_meanings"),
+            "dynamic": ((), "1", "1 if the ramp was finished dynamically after a failed step"),
         }
 
     def dim_sizes(self, design: Tube) -> dict[str, int]:
@@ -279,6 +336,9 @@ class ResponseEvaluator:
             "max_steps": r.max_steps,
             "max_backtracks": r.max_backtracks,
             "free_steps": r.free_steps,
+            "after_snap": r.after_snap,
+            "damping_ratio": r.damping_ratio,
+            "time_step_s": r.time_step,
         }
 
     def finish(self, ds: Any) -> Any:
@@ -302,10 +362,14 @@ class ResponseEvaluator:
                 part = which[lo : lo + batch]
                 params = stack_params(models[lo : lo + batch], batch)
                 kernel = _kernel(layout, self.ramp.free_steps)
-                _, rec = kernel(params, z0, forces, settings)
+                z_last, rec = kernel(params, z0, forces, settings)
                 ok, bad, uz, ur, zp, lam = (np.asarray(r)[: len(part)] for r in rec)
                 l0 = np.asarray([tubes[i].initial_length for i in part])
                 res = _summarise(self.ramp, ok, bad, uz, ur, zp, lam, l0)
+                z_last = np.asarray(z_last)
+                for row, i in enumerate(part):
+                    _finish_after_snap(self.ramp, Model(tubes[i]), ok[row], lam[row],
+                                       z_last[row], res, row)  # fmt: skip
                 if out is None:
                     out = {k: np.empty((n, *v.shape[1:]), v.dtype) for k, v in res.items()}
                 for k, v in res.items():
@@ -365,4 +429,5 @@ def response_point(tube: Tube, ramp: ForceRamp | None = None) -> dict[str, float
         obs.min_eigenvalue[None],
         np.asarray([tube.initial_length]),
     )
-    return {k: (int(v[0]) if k == "status" else float(v[0])) for k, v in res.items()}
+    _finish_after_snap(ramp, model, np.asarray(ok), obs.min_eigenvalue, z, res, 0)
+    return {k: (int(v[0]) if k in ("status", "dynamic") else float(v[0])) for k, v in res.items()}

@@ -140,6 +140,14 @@ def design(
     rate: Annotated[float, typer.Option(help="Force rate Ḟ [N/s].")] = 0.8,
     duration: Annotated[float, typer.Option(help="Ramp duration [s].")] = 2.0,
     steps: Annotated[int, typer.Option(help="Load steps on the ramp.")] = 16,
+    after_snap: Annotated[
+        str,
+        typer.Option(
+            "--after-snap",
+            help="After a failed load step (a snap): 'dynamic' finishes the ramp with "
+            "generalized-α dynamics, 'stop' records the point as not converged.",
+        ),
+    ] = "dynamic",
     chunk_size: _Chunk = 16,
     workers: _Workers = 1,
     scheduler: _Scheduler = None,
@@ -154,7 +162,8 @@ def design(
 
     tube = biplan.load_config(config)
     grid = Grid((parse_axis("b", b), parse_axis("C", c)))
-    ev = ResponseEvaluator(ForceRamp(rate=rate, duration=duration, n_steps=steps))
+    ramp = ForceRamp(rate=rate, duration=duration, n_steps=steps, after_snap=after_snap)
+    ev = ResponseEvaluator(ramp)
     run_map(tube, grid, ev, out, chunk_size=chunk_size, resume=resume, workers=workers,
             scheduler=scheduler, threads=threads, quiet=quiet)  # fmt: skip
 
