@@ -90,6 +90,16 @@ def test_negative_threads_exit_with_the_option_named(
     assert not (tmp_path / "x").exists()  # refused before anything was written
 
 
+def test_unknown_after_snap_exits_with_the_setting_named(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    args = ["map", "design", str(CONFIG), "--b", "0.5", "--C", "1", "--after-snap", "jump"]
+    assert _run([*args, "--out", str(tmp_path / "x"), "--quiet"]) == EXIT_BIPLAN_ERROR
+    err = capsys.readouterr().err
+    assert "after_snap" in err and "jump" in err and "dynamic or stop" in err
+    assert not (tmp_path / "x").exists()
+
+
 def test_stability_map_cli(tmp_path: Path) -> None:
     out = tmp_path / "stab"
     args = ["map", "stability", str(CONFIG), "--displacement", "0.02,0.2", "--C", "1.0"]

@@ -367,8 +367,8 @@ class ResponseEvaluator:
                 l0 = np.asarray([tubes[i].initial_length for i in part])
                 res = _summarise(self.ramp, ok, bad, uz, ur, zp, lam, l0)
                 z_last = np.asarray(z_last)
-                for row, i in enumerate(part):
-                    _finish_after_snap(self.ramp, Model(tubes[i]), ok[row], lam[row],
+                for row in range(len(part)):
+                    _finish_after_snap(self.ramp, models[lo + row], ok[row], lam[row],
                                        z_last[row], res, row)  # fmt: skip
                 if out is None:
                     out = {k: np.empty((n, *v.shape[1:]), v.dtype) for k, v in res.items()}
