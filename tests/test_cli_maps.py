@@ -80,24 +80,25 @@ def test_bad_grid_exits_with_the_parameter_named(
     assert "invalid" in err and needle in err
 
 
-def test_negative_threads_exit_with_the_option_named(
-    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+@pytest.mark.parametrize(
+    ("option", "value", "needles"),
+    [
+        ("--threads", "-1", ("--threads", "-1")),
+        ("--after-snap", "jump", ("after_snap", "jump", "dynamic or stop")),
+    ],
+)
+def test_bad_map_option_exits_with_the_setting_named(
+    tmp_path: Path,
+    capsys: pytest.CaptureFixture[str],
+    option: str,
+    value: str,
+    needles: tuple[str, ...],
 ) -> None:
-    args = ["map", "design", str(CONFIG), "--b", "0.5", "--C", "1", "--threads", "-1"]
+    args = ["map", "design", str(CONFIG), "--b", "0.5", "--C", "1", option, value]
     assert _run([*args, "--out", str(tmp_path / "x"), "--quiet"]) == EXIT_BIPLAN_ERROR
     err = capsys.readouterr().err
-    assert "--threads" in err and "-1" in err
+    assert all(n in err for n in needles)
     assert not (tmp_path / "x").exists()  # refused before anything was written
-
-
-def test_unknown_after_snap_exits_with_the_setting_named(
-    tmp_path: Path, capsys: pytest.CaptureFixture[str]
-) -> None:
-    args = ["map", "design", str(CONFIG), "--b", "0.5", "--C", "1", "--after-snap", "jump"]
-    assert _run([*args, "--out", str(tmp_path / "x"), "--quiet"]) == EXIT_BIPLAN_ERROR
-    err = capsys.readouterr().err
-    assert "after_snap" in err and "jump" in err and "dynamic or stop" in err
-    assert not (tmp_path / "x").exists()
 
 
 def test_stability_map_cli(tmp_path: Path) -> None:
