@@ -6,7 +6,9 @@
 * an undamped ρ∞ = 1 run conserves T + Π − W, and halving the step converges at second order;
 * with Rayleigh damping and a fixed load T + Π − W decreases monotonically;
 * the paper's ramp to 1.6 N keeps the constraints satisfied;
-* after a loss of stability under the force ramp the tube snaps to phase 2 and settles.
+* after a loss of stability under the force ramp the tube snaps to phase 2 and settles;
+* the design map's dynamic finish gets through a cascade of contact impacts;
+* a run over several chunks compiles the chunk once.
 """
 
 from __future__ import annotations
@@ -17,9 +19,11 @@ import pytest
 import biplan
 from biplan._jax import jnp
 from biplan.analysis.modes import natural_modes, rayleigh_for_damping_ratio
+from biplan.analysis.ramp_dynamics import continue_ramp
 from biplan.assembly import Load
 from biplan.inertia import inertia_force
 from biplan.solvers import BackwardEuler, ControlKind
+from biplan.solvers import _dynkernel as dk
 from biplan.solvers.dynamics import mass_matrix_at
 
 
@@ -128,6 +132,32 @@ def test_snap_after_loss_of_stability_settles_in_phase_two(model6, loaded):
     assert tr.stable[-1] and tr.kinetic_energy[-1] < 1e-6  # settled
     assert tr.u_z[-1] > 5 * tr.u_z[before][-1]
     assert np.all(np.isfinite(tr.q))
+
+
+def test_snap_cascade_with_contact_impacts_is_finished(model6, loaded):
+    """The design map's dynamic finish (docs/maps.md) on the six-module design ramped at
+    1.2 N/s to 2.4 N: the last load step of 0.075 N that converges is 2.1 N; the snap drives
+    folds into their contacts at metres per second. The run reaches 2.4 N at rest in a
+    stable equilibrium with circular folds open, and the chunk compiled once."""
+    s, _ = loaded
+    for f in np.arange(1.075, 2.1 + 1e-9, 0.075):
+        s = biplan.solve_equilibrium(model6, None, s, Load.of_force(float(f)))
+        assert s.converged, f
+    traj = continue_ramp(model6, s.z, 1.75, rate=1.2, duration=2.0, damping_ratio=0.05,
+                         time_step=0.01)  # fmt: skip
+    assert traj.completed, traj.message
+    assert traj.force[-1] == pytest.approx(2.4) and traj.time[-1] == pytest.approx(0.25)
+    assert traj.kinetic_energy.max() > 1e-1  # a violent snap
+    assert traj.kinetic_energy[-1] < 1e-6  # settled
+    static = biplan.solve_equilibrium(model6, None, traj.z[-1], Load.of_force(2.4))
+    assert static.converged
+    np.testing.assert_allclose(static.q, traj.q[-1], atol=1e-5)
+    assert biplan.classify(model6, static).verdict is biplan.Verdict.STABLE
+    n = model6.layout.n_modules
+    assert (traj.phase_fraction[-1, n:, 2] > 0.5).any()  # circular folds opened
+    assert traj.u_z[-1] > 5 * traj.u_z[0]
+    # strongly typed initial state: later chunks reuse the first compilation
+    assert dk.compiled_chunk(model6.layout)._cache_size() == 1
 
 
 def test_bad_dynamics_inputs(model6):

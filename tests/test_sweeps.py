@@ -311,7 +311,9 @@ def test_ramp_settings_are_checked() -> None:
     assert ResponseEvaluator(ForceRamp(free_steps=3)).describe()["free_steps"] == 3
     with pytest.raises(ConfigError, match=r"ramp\.after_snap.*dynamic or stop"):
         ForceRamp(after_snap="jump")
-    for name, bad in (("damping_ratio", 1.0), ("damping_ratio", 0.0), ("time_step", -0.01)):
+    bad_values = (("damping_ratio", 1.0), ("damping_ratio", 0.0), ("time_step", -0.01),
+                  ("spectral_radius", -0.1), ("spectral_radius", 1.5))  # fmt: skip
+    for name, bad in bad_values:
         with pytest.raises(ConfigError, match=rf"ramp\.{name}"):
             ForceRamp(**{name: bad})
 

@@ -211,13 +211,11 @@ def _initial_state(model: Model, z0: np.ndarray, v0: np.ndarray, load: Load) -> 
     sol = np.linalg.lstsq(mat, np.concatenate([-r, np.zeros(k)]), rcond=None)[0]
     qdd = sol[:nq]
     force = -z0[-1] if load.is_displacement_controlled else float(load.force)
+    # strongly typed float64 leaves, as the chunk returns them: a weakly typed Python-float
+    # leaf (``jnp.asarray(1.0)``) would make the second chunk call retrace and recompile
+    f64 = functools.partial(jnp.asarray, dtype=jnp.float64)
     return dk.DynState(
-        jnp.asarray(z0),
-        jnp.asarray(v0),
-        jnp.asarray(qdd),
-        jnp.asarray(qdd),
-        jnp.asarray(force),
-        jnp.asarray(model.load_displacement(q0)),
+        f64(z0), f64(v0), f64(qdd), f64(qdd), f64(force), f64(model.load_displacement(q0))
     )
 
 
@@ -304,7 +302,7 @@ def integrate(
         grid = t + h * np.arange(1, dk.CHUNK_STEPS + 1)
         grid = np.minimum(grid, t_end)
         states, ok, n_it, kin, dis = run(
-            model.params, state, jnp.asarray(t), jnp.asarray(grid), *args
+            model.params, state, jnp.asarray(t, dtype=jnp.float64), jnp.asarray(grid), *args
         )
         ok = np.asarray(ok)
         n_ok = int(np.argmin(ok)) if not ok.all() else ok.size
