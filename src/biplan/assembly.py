@@ -96,7 +96,9 @@ class Load(NamedTuple):
 
 
 def _jax_load(load: Load) -> Load:
-    return Load(*(jnp.asarray(float(v)) for v in load))
+    """The load as weakly typed scalars, whatever the caller passed (Python or NumPy floats):
+    one aval per kernel, so a kernel is not traced and compiled once per scalar type."""
+    return Load(*(jnp.asarray(float(v)) if np.ndim(v) == 0 else jnp.asarray(v) for v in load))
 
 
 def _law_rows(laws: tuple) -> Array:  # type: ignore[type-arg]
@@ -561,15 +563,17 @@ class Model:
 
     def residual(self, z: Array, load: Load) -> np.ndarray:
         """KKT residual r(z) for the given load."""
-        return np.asarray(self.kernels.residual(self.params, jnp.asarray(z), load))
+        return np.asarray(self.kernels.residual(self.params, jnp.asarray(z), _jax_load(load)))
 
     def jacobian(self, z: Array, load: Load) -> np.ndarray:
         """∂r/∂z, (n_z, n_z)."""
-        return np.asarray(self.kernels.jacobian(self.params, jnp.asarray(z), load))
+        return np.asarray(self.kernels.jacobian(self.params, jnp.asarray(z), _jax_load(load)))
 
     def jacobian_autodiff(self, z: Array, load: Load) -> np.ndarray:
         """∂r/∂z by forward-mode autodiff of the whole residual (reference for tests)."""
-        return np.asarray(self.kernels.jacobian_autodiff(self.params, jnp.asarray(z), load))
+        return np.asarray(
+            self.kernels.jacobian_autodiff(self.params, jnp.asarray(z), _jax_load(load))
+        )
 
     def state(self, z: Array, load: Load) -> StateData:
         """Energies, endpoint, Lagrangian Hessian and constraint Jacobians at z (one kernel)."""
@@ -578,7 +582,9 @@ class Model:
 
     def lagrangian_hessian(self, z: Array, load: Load) -> np.ndarray:
         """∇²_q L at z: energy, load and multiplier curvature (MODEL CHOICE S2)."""
-        return np.asarray(self.kernels.lagrangian_hessian(self.params, jnp.asarray(z), load))
+        return np.asarray(
+            self.kernels.lagrangian_hessian(self.params, jnp.asarray(z), _jax_load(load))
+        )
 
     def endpoint(self, q: Array) -> chain.Endpoint:
         """(u_z [mm], u_r [mm], θ [rad]) of the free end relative to q = 0 (MODEL R2)."""
