@@ -147,6 +147,11 @@ def _observe(layout: TubeLayout, p: Any, z: Array, u: Array) -> tuple:
     return ob.energy, ob.min_eigenvalue, ob.u_z, ob.u_r, ob.force
 
 
+#: Lanes of the observation kernel: fixed, so that the march (``march_lanes``) and the seed
+#: pool (``solve_batch``) share one compiled observation.
+OBSERVE_LANES = 8
+
+
 @functools.lru_cache(maxsize=16)
 def _observe_kernel(layout: TubeLayout) -> Any:
     return jax.jit(jax.vmap(functools.partial(_observe, layout)))
@@ -279,9 +284,9 @@ class StabilityEvaluator:
                     rep[i] = rep[sel[:a][near][0]]
         idx = np.flatnonzero(ok & (rep == np.arange(n)))
         fn = _observe_kernel(layout)
-        for lo in range(0, idx.size, lanes):
-            part = idx[lo : lo + lanes]
-            full = np.r_[part, np.full(lanes - part.size, part[-1])]
+        for lo in range(0, idx.size, OBSERVE_LANES):
+            part = idx[lo : lo + OBSERVE_LANES]
+            full = np.r_[part, np.full(OBSERVE_LANES - part.size, part[-1])]
             p = jax.tree_util.tree_map(lambda a, r=rows[full]: a[r], params)
             out = fn(p, jnp.asarray(z[full]), jnp.asarray(u[full]))
             for o, v in zip(obs, out, strict=True):
