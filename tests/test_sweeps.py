@@ -366,6 +366,49 @@ def test_ramp_past_the_fold_capacity_is_finished_dynamically(model1) -> None:
     assert traj.phase_fraction[-1, model.layout.n_modules, 2] > 0.5  # the base fold: open
 
 
+def test_dynamic_finish_falls_back_to_backward_euler(model1, monkeypatch) -> None:
+    """Where the generalized-α run (ρ∞ = 0) fails even at the smallest step, ``continue_ramp``
+    redoes it from the same equilibrium and load history with backward Euler (same h, α_R)
+    and returns that run (its ``scheme`` names it; the map then marks the point 2)."""
+    from types import SimpleNamespace
+
+    from biplan.analysis import ramp_dynamics
+    from biplan.solvers import BackwardEuler
+    from biplan.solvers.results import TrajectoryStatus
+
+    calls = []
+
+    def fake_integrate(model, scheme, start, *, t_end, load):
+        calls.append((scheme, start.force, t_end, load))
+        failed = len(calls) == 1
+        status = TrajectoryStatus.STEP_FAILED if failed else TrajectoryStatus.COMPLETED
+        return SimpleNamespace(status=status, scheme=scheme.describe())
+
+    monkeypatch.setattr(ramp_dynamics, "integrate", fake_integrate)
+    monkeypatch.setattr(ramp_dynamics, "_rayleigh", lambda *args: 7.0)
+    z = np.asarray(model1.pack(model1.zeros()))
+    out = ramp_dynamics.continue_ramp(model1, z, 1.5, rate=1.2, duration=2.0,
+                                      damping_ratio=0.05, time_step=0.01)  # fmt: skip
+    first, second = calls[0][0], calls[1][0]
+    assert type(first) is biplan.GeneralizedAlpha and first.spectral_radius == 0.0
+    assert type(second) is BackwardEuler
+    assert first.time_step == second.time_step == 0.01 and first.rayleigh == second.rayleigh == 7.0
+    assert calls[0][1:] == calls[1][1:] and calls[0][1] == pytest.approx(1.8)
+    assert calls[0][2] == pytest.approx(0.5)
+    assert out.scheme.startswith("backward-euler")
+    calls.clear()  # a generalized-α run that completes is returned as it is
+
+    def completes(model, scheme, start, *, t_end, load):
+        calls.append((scheme, start.force, t_end, load))
+        return SimpleNamespace(status=TrajectoryStatus.COMPLETED, scheme=scheme.describe())
+
+    monkeypatch.setattr(ramp_dynamics, "integrate", completes)
+    out = ramp_dynamics.continue_ramp(model1, z, 1.5, rate=1.2, duration=2.0, damping_ratio=0.05,
+                                      time_step=0.01, spectral_radius=0.5)  # fmt: skip
+    assert len(calls) == 1 and calls[0][0].spectral_radius == 0.5
+    assert out.scheme.startswith("generalized-alpha")
+
+
 # --- the stability map ------------------------------------------------------------------------
 def test_transition_band_marks_alternating_stretches() -> None:
     regime = np.array([[1, 1, 2, 1, 2, 3, 3], [1, 1, 1, 2, 2, 3, 3], [1, 3, 1, 1, 1, 1, 1]])
