@@ -134,7 +134,9 @@ class _Stepper:
 
     def load(self, value: float) -> Load:
         f, u = (0.0, value) if self.d else (value, 0.0)
-        return Load(jnp.asarray(f), jnp.asarray(u), jnp.asarray(self.d))
+        # Python floats, as solve_equilibrium passes them: a NumPy scalar would be strongly
+        # typed and compile the Newton loop a second time
+        return Load(jnp.asarray(float(f)), jnp.asarray(float(u)), jnp.asarray(float(self.d)))
 
     def solve(self, z: np.ndarray, value: float, params: object = None) -> tuple[np.ndarray, bool]:
         p = self.model.params if params is None else params
