@@ -47,3 +47,21 @@ def test_release_fraction_is_validated():
 
     with pytest.raises(ConfigError, match=r"fraction.*\[0\.0, 1\.0\]"):
         release_compiled_kernels(fraction=1.5)
+
+
+def test_a_load_reaches_a_kernel_with_one_input_type(model1):
+    """Python and NumPy scalars give the same kernel input type (the residual kernel is
+    traced once for both), and arrays pass through."""
+    import numpy as np
+
+    from biplan.assembly import Load
+
+    py, npy = Load.of_force(0.3).for_kernel(), Load.of_force(np.float64(0.3)).for_kernel()
+    assert [jax.typeof(v) for v in py] == [jax.typeof(v) for v in npy]
+    z = np.asarray(model1.pack(model1.zeros()))
+    model1.kernels.residual.clear_cache()
+    model1.residual(z, Load.of_force(0.3))
+    model1.residual(z, Load(np.float64(0.3), np.float64(0.0), np.float64(0.0)))
+    assert model1.kernels.residual._cache_size() == 1
+    batch = Load(np.zeros(3), np.zeros(3), np.zeros(3)).for_kernel()
+    assert all(v.shape == (3,) for v in batch)

@@ -94,11 +94,11 @@ class Load(NamedTuple):
     def is_displacement_controlled(self) -> bool:
         return bool(float(self.displacement_control) > 0.5)
 
-
-def _jax_load(load: Load) -> Load:
-    """The load as weakly typed scalars, whatever the caller passed (Python or NumPy floats):
-    one aval per kernel, so a kernel is not traced and compiled once per scalar type."""
-    return Load(*(jnp.asarray(float(v)) if np.ndim(v) == 0 else jnp.asarray(v) for v in load))
+    def for_kernel(self) -> Load:
+        """The form every compiled kernel is called with: weakly typed JAX scalars, whatever
+        the caller passed (Python or NumPy floats; arrays are passed on). One input type per
+        kernel, so no kernel is traced and compiled once per scalar type."""
+        return Load(*(jnp.asarray(float(v)) if np.ndim(v) == 0 else jnp.asarray(v) for v in self))
 
 
 def _law_rows(laws: tuple) -> Array:  # type: ignore[type-arg]
@@ -563,27 +563,27 @@ class Model:
 
     def residual(self, z: Array, load: Load) -> np.ndarray:
         """KKT residual r(z) for the given load."""
-        return np.asarray(self.kernels.residual(self.params, jnp.asarray(z), _jax_load(load)))
+        return np.asarray(self.kernels.residual(self.params, jnp.asarray(z), load.for_kernel()))
 
     def jacobian(self, z: Array, load: Load) -> np.ndarray:
         """∂r/∂z, (n_z, n_z)."""
-        return np.asarray(self.kernels.jacobian(self.params, jnp.asarray(z), _jax_load(load)))
+        return np.asarray(self.kernels.jacobian(self.params, jnp.asarray(z), load.for_kernel()))
 
     def jacobian_autodiff(self, z: Array, load: Load) -> np.ndarray:
         """∂r/∂z by forward-mode autodiff of the whole residual (reference for tests)."""
         return np.asarray(
-            self.kernels.jacobian_autodiff(self.params, jnp.asarray(z), _jax_load(load))
+            self.kernels.jacobian_autodiff(self.params, jnp.asarray(z), load.for_kernel())
         )
 
     def state(self, z: Array, load: Load) -> StateData:
         """Energies, endpoint, Lagrangian Hessian and constraint Jacobians at z (one kernel)."""
-        out = self.kernels.state(self.params, jnp.asarray(z), _jax_load(load))
+        out = self.kernels.state(self.params, jnp.asarray(z), load.for_kernel())
         return jax.tree_util.tree_map(np.asarray, out)
 
     def lagrangian_hessian(self, z: Array, load: Load) -> np.ndarray:
         """∇²_q L at z: energy, load and multiplier curvature (MODEL CHOICE S2)."""
         return np.asarray(
-            self.kernels.lagrangian_hessian(self.params, jnp.asarray(z), _jax_load(load))
+            self.kernels.lagrangian_hessian(self.params, jnp.asarray(z), load.for_kernel())
         )
 
     def endpoint(self, q: Array) -> chain.Endpoint:

@@ -22,7 +22,6 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from biplan._errors import ConfigError, check_range
-from biplan._jax import jnp
 from biplan.analysis.stability import classify
 from biplan.assembly import Load, Model
 from biplan.solvers.newton import Status, make_solution
@@ -179,7 +178,7 @@ def _deflated_newton(
 ) -> tuple[np.ndarray, float, bool]:
     nq = model.n_coordinates
     k, params = model.kernels, model.params
-    jload = Load(*(jnp.asarray(float(v)) for v in load))
+    jload = load.for_kernel()
 
     def residual(x: np.ndarray) -> np.ndarray:
         return np.asarray(k.residual(params, x, jload))

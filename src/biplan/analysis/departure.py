@@ -134,9 +134,9 @@ class _Stepper:
 
     def load(self, value: float) -> Load:
         f, u = (0.0, value) if self.d else (value, 0.0)
-        # Python floats, as solve_equilibrium passes them: a NumPy scalar would be strongly
-        # typed and compile the Newton loop a second time
-        return Load(jnp.asarray(float(f)), jnp.asarray(float(u)), jnp.asarray(float(self.d)))
+        # the kernel form solve_equilibrium uses too: a NumPy scalar passed as it is would be
+        # strongly typed and compile the Newton loop a second time
+        return Load(f, u, self.d).for_kernel()
 
     def solve(self, z: np.ndarray, value: float, params: object = None) -> tuple[np.ndarray, bool]:
         p = self.model.params if params is None else params

@@ -526,7 +526,7 @@ def solve_equilibrium(
         raise ConfigError("load", load, "a biplan Load (Load.of_force / Load.of_displacement)")
     z0 = _start_vector(model, model.zeros() if start is None else start)
     loop = compiled_loop(model.layout, solver.free_steps)
-    jload = Load(*(jnp.asarray(float(v)) for v in load))
+    jload = load.for_kernel()
     out = loop(model.params, jnp.asarray(z0), jload, solver.settings())
     status = Status(int(out.status))
     rnorm = float(np.max(np.abs(np.asarray(out.r))))
