@@ -36,11 +36,11 @@ for _flag in ("--xla_backend_optimization_level=0", "--xla_llvm_disable_expensiv
         _xla_flags += " " + _flag
 os.environ["XLA_FLAGS"] = _xla_flags.strip()
 
-import numpy as np
-import pytest
+import numpy as np  # noqa: E402
+import pytest  # noqa: E402
 
-import biplan  # enables JAX float64
-from biplan._jax import release_compiled_kernels
+import biplan  # noqa: E402  (enables JAX float64)
+from biplan._jax import release_compiled_kernels  # noqa: E402
 
 #: Geometry of the SI calibration table (MODEL.md §3, §14).
 GEOMETRY = {"radius": 2.0, "pitch": 3.6, "helical_angle": 60.0}
