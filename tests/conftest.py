@@ -25,22 +25,16 @@ os.environ.setdefault(
     "BIPLAN_JAX_CACHE", str(Path(__file__).resolve().parent.parent / ".jax-cache-tests")
 )
 
-# The suite checks numbers, not speed (timings live in benchmarks/): XLA compiles its kernels
-# with LLVM's cheap pipeline. Compilation dominates the suite (the six-module dynamics chunk:
-# 264 -> 158 s of backend compile on this 2-core machine) while the kernels run at most ~2x
-# slower; the arithmetic is the same IEEE float64 (no fast-math either way). See
-# docs/performance.md, "Suite time". Set before biplan (and so JAX) is imported.
-_xla_flags = os.environ.get("XLA_FLAGS", "")
-for _flag in ("--xla_backend_optimization_level=0", "--xla_llvm_disable_expensive_passes=true"):
-    if _flag.split("=")[0] not in _xla_flags:
-        _xla_flags += " " + _flag
-os.environ["XLA_FLAGS"] = _xla_flags.strip()
+# The suite checks numbers, not speed (timings live in benchmarks/): its kernels compile with
+# LLVM's cheap pipeline (biplan._jax; compilation dominates the suite, docs/performance.md,
+# "Suite time"). Set before biplan is imported.
+os.environ.setdefault("BIPLAN_FAST_COMPILE", "on")
 
-import numpy as np  # noqa: E402
-import pytest  # noqa: E402
+import numpy as np
+import pytest
 
-import biplan  # noqa: E402  (enables JAX float64)
-from biplan._jax import release_compiled_kernels  # noqa: E402
+import biplan  # enables JAX float64
+from biplan._jax import release_compiled_kernels
 
 #: Geometry of the SI calibration table (MODEL.md §3, §14).
 GEOMETRY = {"radius": 2.0, "pitch": 3.6, "helical_angle": 60.0}

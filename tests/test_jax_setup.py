@@ -18,6 +18,14 @@ def test_xla_flags_disable_the_ynn_fusion():
     assert "--xla_cpu_experimental_ynn_fusion_type=" in os.environ["XLA_FLAGS"]
 
 
+def test_fast_compile_adds_the_cheap_llvm_pipeline():
+    """The suite runs with BIPLAN_FAST_COMPILE=on (conftest); each flag is added once."""
+    assert os.environ["BIPLAN_FAST_COMPILE"] == "on"
+    flags = os.environ["XLA_FLAGS"].split()
+    assert flags.count("--xla_backend_optimization_level=0") == 1
+    assert flags.count("--xla_llvm_disable_expensive_passes=true") == 1
+
+
 @pytest.mark.skipif(not sys.platform.startswith("linux"), reason="/proc/self/maps is Linux")
 def test_release_compiled_kernels_frees_memory_maps():
     functions = [jax.jit(lambda x, k=k: jnp.sin(x) * k + x**2) for k in range(100)]

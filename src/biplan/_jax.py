@@ -16,6 +16,11 @@ here (the kernels are many small matrices, parallelised by batching); set
 "ynn" fusion (``--xla_cpu_experimental_ynn_fusion_type=``, unless set), which in jaxlib 0.10.2
 hangs or crashes on some batched kernels on Linux x86-64 (jax-ml/jax#39257); the hang seen here
 with the multi-threaded pool already off matches it.
+
+``BIPLAN_FAST_COMPILE=on`` compiles with LLVM's cheap pipeline
+(``--xla_backend_optimization_level=0 --xla_llvm_disable_expensive_passes=true``): the
+six-module dynamics chunk compiles ~40 % faster and runs ~2× slower, which pays for short runs
+dominated by compilation (the test suite sets it; docs/performance.md, "Suite time").
 """
 
 from __future__ import annotations
@@ -23,12 +28,16 @@ from __future__ import annotations
 import os
 from pathlib import Path
 
+_ON = {"on", "1", "true"}
 _flags = os.environ.get("XLA_FLAGS", "")
-_eigen_threads = os.environ.get("BIPLAN_EIGEN_THREADS", "").lower() in {"on", "1", "true"}
-if not _eigen_threads and "xla_cpu_multi_thread_eigen" not in _flags:
-    _flags += " --xla_cpu_multi_thread_eigen=false"
-if "xla_cpu_experimental_ynn_fusion_type" not in _flags:
-    _flags += " --xla_cpu_experimental_ynn_fusion_type="
+_wanted = ["--xla_cpu_experimental_ynn_fusion_type="]
+if os.environ.get("BIPLAN_EIGEN_THREADS", "").lower() not in _ON:
+    _wanted.append("--xla_cpu_multi_thread_eigen=false")
+if os.environ.get("BIPLAN_FAST_COMPILE", "").lower() in _ON:
+    _wanted += ["--xla_backend_optimization_level=0", "--xla_llvm_disable_expensive_passes=true"]
+for _flag in _wanted:  # a flag the user set wins
+    if _flag.split("=")[0].removeprefix("--") not in _flags:
+        _flags += " " + _flag
 os.environ["XLA_FLAGS"] = _flags.strip()
 
 import jax  # noqa: E402
