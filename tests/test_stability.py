@@ -266,3 +266,61 @@ def test_stiff_helical_tube_in_the_spinodal_is_unstable_under_force_control():
     assert dsol.converged
     assert dsol.force == pytest.approx(f_end, rel=1e-6)
     assert biplan.classify(m, dsol).verdict is Verdict.STABLE
+
+
+# --------------------------------------------------------------------------------------------
+# Leaving a saddle under displacement control (analysis.quasistatic.relax)
+# --------------------------------------------------------------------------------------------
+def test_relax_from_the_symmetric_saddle_opens_one_fold(model6, symmetric_path):
+    """From the symmetric saddle at U = 2 mm (every fold on the spinodal), the descent along its
+    softest unstable mode — in the sense that opens a fold — ends in a stable equilibrium at the
+    same U with lower energy, in which one circular fold has snapped to its open branch. The
+    inexact sub-problems (the default) and exact ones (every sub-problem to ``atol``) end in the
+    same equilibrium, and both give up in the other sense."""
+    from biplan.analysis.quasistatic import relax
+    from biplan.analysis.stability import reduced_hessian
+
+    saddle = symmetric_path[2.0]
+    h, basis = reduced_hessian(model6, saddle)
+    eig, vec = np.linalg.eigh(h)
+    assert eig[0] < 0
+    mode = basis @ vec[:, 0]
+    runs = {
+        (sign, exact): relax(
+            model6,
+            saddle,
+            saddle.load,
+            Newton(),
+            direction=sign * mode,
+            **({"sub_steps": 60, "sub_tolerance": 0.0} if exact else {}),
+        )
+        for sign in (1.0, -1.0)
+        for exact in (False, True)
+    }
+    found = [sign for sign in (1.0, -1.0) if runs[sign, False] is not None]
+    assert len(found) == 1
+    sign = found[0]
+    assert runs[-sign, True] is None
+    sol, st = runs[sign, False]
+    sol_exact, _ = runs[sign, True]
+    assert sol.converged and sol.residual_norm < Newton().atol
+    assert st.verdict is Verdict.STABLE
+    assert sol.displacement == pytest.approx(2.0, abs=1e-9)
+    assert sol.energy < saddle.energy - 1.0
+    law = model6.tube.circular_laws[0]
+    open_share = [
+        float(np.mean(law.phase_fractions(s, e)[..., 2]))
+        for s, e, _ in model6.circular_fields(sol.q)
+    ]
+    assert sum(x > 0.5 for x in open_share) == 1, open_share
+    assert sol_exact.energy == pytest.approx(sol.energy, abs=1e-9)
+    assert np.max(np.abs(sol_exact.q - sol.q)) < 1e-6
+
+
+@pytest.mark.parametrize(("name", "value"), [("sub_steps", 0), ("sub_tolerance", -1.0)])
+def test_relax_rejects_bad_settings(model1, name, value):
+    from biplan.analysis.quasistatic import relax
+
+    start = biplan.solve_equilibrium(model1, Newton(), model1.zeros())
+    with pytest.raises(ConfigError, match=name):
+        relax(model1, start, start.load, Newton(), **{name: value})

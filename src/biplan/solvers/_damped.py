@@ -35,41 +35,63 @@ def damped_newton(
     atol: Array,
     max_iterations: Array,
 ) -> NewtonOut:
-    """Solve R(x) = 0 from x0 to ‖R‖∞ < atol within ``max_iterations`` Newton steps."""
+    """Solve R(x) = 0 from x0 to ‖R‖∞ < atol within ``max_iterations`` Newton steps.
+
+    ``residual`` and ``jacobian`` are each traced once, inside the loop: x0 enters as the first
+    trial point (direction 0, merit +∞), and the Jacobian and Newton direction of an accepted
+    point are formed at the start of the next pass — also after the last acceptance, so that
+    ``NewtonOut.jacobian`` is the Jacobian at ``x``. Tracing them a second time for the start
+    (as an initial ``direction(x0)`` outside the loop would) doubles the largest part of the
+    compiled kernel: the time-step and path-corrector Jacobians (docs/performance.md).
+    """
 
     def direction(x: Array, r: Array) -> tuple[Array, Array]:
         jac = jacobian(x)
         d = linalg.solve(jac, -r)
         return jnp.where(jnp.isfinite(d), d, 0.0), jac
 
-    r0 = residual(x0)
-    d0, j0 = direction(x0, r0)
-    f0 = 0.5 * r0 @ r0
-    flag0 = jnp.where(jnp.max(jnp.abs(r0)) < atol, 1, jnp.where(jnp.isfinite(f0), -1, 0))
-
     def body(s: tuple) -> tuple:
-        x, r, f, d, alpha, it, _flag, jac = s
+        x, r, f, d, alpha, it, flag, jac, fresh = s
+        d, jac = jax.lax.cond(fresh, lambda: direction(x, r), lambda: (d, jac))
+        running = flag < 0
         xt = x + alpha * d
         rt = residual(xt)
         ft = 0.5 * rt @ rt
-        accept = jnp.isfinite(ft) & (ft <= (1.0 - 2e-4 * alpha) * f)
-        d_new, jac_new = jax.lax.cond(accept, lambda: direction(xt, rt), lambda: (d, jac))
-        it_new = it + accept.astype(it.dtype)
+        accept = running & jnp.isfinite(ft) & (ft <= (1.0 - 2e-4 * alpha) * f)
+        it_new = it + (accept & jnp.isfinite(f)).astype(it.dtype)  # x0 is not a step
         converged = accept & (jnp.max(jnp.abs(rt)) < atol)
         alpha_new = jnp.where(accept, 1.0, 0.5 * alpha)
-        failed = (alpha_new < MIN_ALPHA) | ((it_new >= max_iterations) & ~converged)
-        flag = jnp.where(converged, 1, jnp.where(failed, 0, -1))
+        failed = (
+            (~accept & ~jnp.isfinite(f))  # x0 itself not finite
+            | (alpha_new < MIN_ALPHA)
+            | ((it_new >= max_iterations) & ~converged)
+        )
+        flag_new = jnp.where(running, jnp.where(converged, 1, jnp.where(failed, 0, -1)), flag)
         return (
             jnp.where(accept, xt, x),
             jnp.where(accept, rt, r),
             jnp.where(accept, ft, f),
-            d_new,
+            d,
             alpha_new,
             it_new,
-            flag,
-            jac_new,
+            flag_new,
+            jac,
+            accept,
         )
 
-    init = (x0, r0, f0, d0, jnp.asarray(1.0), jnp.asarray(0), flag0, j0)
-    x, r, _f, _d, _a, it, flag, jac = jax.lax.while_loop(lambda s: s[6] < 0, body, init)
+    n = x0.shape[0]
+    init = (
+        x0,
+        jnp.full_like(x0, jnp.inf),
+        jnp.asarray(jnp.inf, x0.dtype),
+        jnp.zeros_like(x0),
+        jnp.asarray(1.0, x0.dtype),
+        jnp.asarray(0),
+        jnp.asarray(-1),
+        jnp.zeros((n, n), x0.dtype),
+        jnp.asarray(False),
+    )
+    x, r, _f, _d, _a, it, flag, jac, _fresh = jax.lax.while_loop(
+        lambda s: (s[6] < 0) | s[8], body, init
+    )
     return NewtonOut(x, flag == 1, it, jnp.max(jnp.abs(r)), jac)
