@@ -96,7 +96,7 @@ def relax(
     near the kinks of a trilinear law (a fold at a branch transition, where the stiffness jumps
     and Newton can cycle at ‖r‖ ~ 1e-7) exact sub-problems cost the full ``solver.max_steps``
     each and, counted as failures, stiffened κ until the descent gave up (docs/performance.md,
-    "Quasi-static sweep").
+    "inexact relaxation").
 
     Parameters
     ----------
