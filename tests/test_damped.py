@@ -97,3 +97,22 @@ def test_residual_and_jacobian_are_traced_once() -> None:
 
     jax.jit(lambda x: damped_newton(residual, jacobian, x, 1e-12, 50)).lower(jnp.ones(2))
     assert calls == {"residual": 1, "jacobian": 1}
+
+
+def test_batched_with_axis_name_equals_one_solve_per_lane() -> None:
+    """Under ``vmap`` with ``axis_name`` the Jacobian is formed only on passes where some lane
+    accepted a point; every lane still follows its own unbatched iteration."""
+    starts = np.array([[1.5, 1.5], [0.35, 3.5], [0.05, -3.0], [-1.2, 0.4], [2.5, 2.5]])
+
+    def solve(x, axis_name=None):
+        return damped_newton(_residual, _jacobian, x, 1e-12, 50, axis_name=axis_name)
+
+    batched = jax.jit(jax.vmap(lambda x: solve(x, "lanes"), axis_name="lanes"))(jnp.asarray(starts))
+    for i, x0 in enumerate(starts):
+        one = _solve(x0)
+        assert bool(batched.converged[i]) == bool(one.converged)
+        assert int(batched.iterations[i]) == int(one.iterations)
+        np.testing.assert_allclose(np.asarray(batched.x[i]), np.asarray(one.x), atol=1e-13)
+        np.testing.assert_allclose(
+            np.asarray(batched.jacobian[i]), np.asarray(one.jacobian), atol=1e-12
+        )

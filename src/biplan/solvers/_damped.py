@@ -34,6 +34,7 @@ def damped_newton(
     x0: Array,
     atol: Array,
     max_iterations: Array,
+    axis_name: str | None = None,
 ) -> NewtonOut:
     """Solve R(x) = 0 from x0 to ‖R‖∞ < atol within ``max_iterations`` Newton steps.
 
@@ -43,6 +44,11 @@ def damped_newton(
     ``NewtonOut.jacobian`` is the Jacobian at ``x``. Tracing them a second time for the start
     (as an initial ``direction(x0)`` outside the loop would) doubles the largest part of the
     compiled kernel: the time-step and path-corrector Jacobians (docs/performance.md).
+
+    ``axis_name`` (static): the name of an enclosing ``vmap`` axis. The Jacobian is then
+    formed only on passes where some lane of the batch has accepted a point (``lax.cond`` on a
+    ``psum``); without it ``vmap`` turns the ``cond`` into a select and every lane pays for a
+    Jacobian on every backtracking pass. Same iterates either way (to rounding).
     """
 
     def direction(x: Array, r: Array) -> tuple[Array, Array]:
@@ -52,7 +58,12 @@ def damped_newton(
 
     def body(s: tuple) -> tuple:
         x, r, f, d, alpha, it, flag, jac, fresh = s
-        d, jac = jax.lax.cond(fresh, lambda: direction(x, r), lambda: (d, jac))
+        need = fresh
+        if axis_name is not None:
+            need = jax.lax.psum(fresh.astype(jnp.int32), axis_name) > 0
+        d_new, jac_new = jax.lax.cond(need, lambda: direction(x, r), lambda: (d, jac))
+        d = jnp.where(fresh, d_new, d)
+        jac = jnp.where(fresh, jac_new, jac)
         running = flag < 0
         xt = x + alpha * d
         rt = residual(xt)

@@ -78,8 +78,13 @@ def corrector(
     rho: Array,
     atol: Array,
     max_iterations: Array,
+    axis_name: str | None = None,
 ) -> CorrectorOut:
-    """Damped Newton on the bordered system from (z0, Λ0); pure, jit/vmap-able."""
+    """Damped Newton on the bordered system from (z0, Λ0); pure, jit/vmap-able.
+
+    ``axis_name``: the enclosing ``vmap`` axis, if any (see
+    :func:`~biplan.solvers._damped.damped_newton`).
+    """
     n = z0.shape[0]
 
     def aug(x: Array) -> Array:
@@ -92,7 +97,8 @@ def corrector(
         top = jnp.concatenate([j, r_lam[:, None]], axis=1)
         return jnp.concatenate([top, jnp.concatenate([row_z, row_l[None]])[None, :]], axis=0)
 
-    out = damped_newton(aug, jac, jnp.concatenate([z0, lam0[None]]), atol, max_iterations)
+    x0 = jnp.concatenate([z0, lam0[None]])
+    out = damped_newton(aug, jac, x0, atol, max_iterations, axis_name=axis_name)
     return CorrectorOut(
         out.x[:n],
         out.x[n],
@@ -257,5 +263,6 @@ def compiled_path(layout: TubeLayout, buffer_size: int) -> Any:
 @functools.lru_cache(maxsize=32)
 def compiled_corrector(layout: TubeLayout) -> Any:
     """The jitted corrector, vmapped over (z0, Λ0, row_z, row_l, ρ)."""
-    fn = functools.partial(corrector, layout)
-    return jax.jit(jax.vmap(fn, in_axes=(None, 0, 0, None, 0, 0, 0, None, None)))
+    fn = functools.partial(corrector, layout, axis_name="lanes")
+    in_axes = (None, 0, 0, None, 0, 0, 0, None, None)
+    return jax.jit(jax.vmap(fn, in_axes=in_axes, axis_name="lanes"))
