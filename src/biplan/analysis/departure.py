@@ -19,12 +19,13 @@ target when every fold has the target's majority phase.
 from __future__ import annotations
 
 import enum
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 
 import numpy as np
 
 from biplan._errors import ConfigError, check_range
 from biplan._jax import jnp
+from biplan.analysis.quasistatic import SUB_STEPS, SUB_TOLERANCE
 from biplan.assembly import Load, Model
 from biplan.solvers.newton import Newton, Status, compiled_loop
 from biplan.solvers.observe import Observation, observe_batch
@@ -130,6 +131,9 @@ class _Stepper:
         self.model, self.ramp = model, ramp
         self.loop = compiled_loop(model.layout, ramp.newton.free_steps)
         self.settings = ramp.newton.settings()
+        # the proximal sub-problems of relax() are solved inexactly (as in quasistatic.relax)
+        inexact = replace(ramp.newton, max_steps=min(ramp.newton.max_steps, SUB_STEPS))
+        self.sub_settings = inexact.settings()
         self.d = 1.0 if ramp.displacement_control else 0.0
 
     def load(self, value: float) -> Load:
@@ -139,9 +143,14 @@ class _Stepper:
         return Load(f, u, self.d).for_kernel()
 
     def solve(self, z: np.ndarray, value: float, params: object = None) -> tuple[np.ndarray, bool]:
-        p = self.model.params if params is None else params
-        out = self.loop(p, jnp.asarray(z), self.load(value), self.settings)
-        return np.asarray(out.z), int(out.status) == Status.CONVERGED.value
+        """Newton at ``value`` from z (``params``: a biased problem of :meth:`relax`, solved
+        inexactly: ``SUB_STEPS`` iterations, converged below ``SUB_TOLERANCE``)."""
+        if params is None:
+            out = self.loop(self.model.params, jnp.asarray(z), self.load(value), self.settings)
+            return np.asarray(out.z), int(out.status) == Status.CONVERGED.value
+        out = self.loop(params, jnp.asarray(z), self.load(value), self.sub_settings)
+        close = float(np.max(np.abs(np.asarray(out.r)))) <= SUB_TOLERANCE
+        return np.asarray(out.z), int(out.status) == Status.CONVERGED.value or close
 
     def observe(self, z: np.ndarray, value: float) -> Observation:
         f, u = (0.0, value) if self.d else (value, 0.0)
@@ -163,7 +172,9 @@ class _Stepper:
     def relax(self, z: np.ndarray, value: float) -> np.ndarray:
         """Adaptive proximal-point descent at ``value`` (an implicit gradient flow): bias
         ½κ‖q − q_prev‖² anchored at the previous iterate; κ shrinks after a converged step and
-        grows after a failed one (a biased problem that is not convex), down to 1e-6 κ_0."""
+        grows after a failed one (a biased problem that is not convex), down to 1e-6 κ_0. The
+        biased problems are solved inexactly (:func:`biplan.analysis.quasistatic.relax`); the
+        state returned comes from an unbiased solve to ``atol``."""
         nq = self.model.n_coordinates
         kappa, floor = self.ramp.kappa, 1e-6 * self.ramp.kappa
         for _ in range(self.ramp.max_relaxations):

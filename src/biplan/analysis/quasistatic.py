@@ -23,6 +23,11 @@ from biplan.solvers.newton import Newton, Solution, Status, relaxed_reference, s
 
 __all__ = ["QuasiStaticPath", "displacement_sweep", "relax"]
 
+#: Newton iterations of a proximal sub-problem (inexact proximal point, :func:`relax`).
+SUB_STEPS = 20
+#: Residual ‖r‖∞ [N, mm] below which an unconverged proximal sub-problem moves the anchor.
+SUB_TOLERANCE = 1e-6
+
 
 @dataclass(frozen=True)
 class QuasiStaticPath:
@@ -75,8 +80,8 @@ def relax(
     stiffness: float | None = None,
     max_iterations: int = 300,
     polish_every: int = 10,
-    sub_steps: int = 20,
-    sub_tolerance: float = 1e-6,
+    sub_steps: int = SUB_STEPS,
+    sub_tolerance: float = SUB_TOLERANCE,
 ) -> tuple[Solution, Stability] | None:
     """Proximal-point descent to a stable equilibrium at ``load``.
 
