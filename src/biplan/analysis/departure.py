@@ -174,7 +174,7 @@ class _Stepper:
         ½κ‖q − q_prev‖² anchored at the previous iterate; κ shrinks after a converged step and
         grows after a failed one (a biased problem that is not convex), down to 1e-6 κ_0. The
         biased problems are solved inexactly (:func:`biplan.analysis.quasistatic.relax`); the
-        state returned comes from an unbiased solve to ``atol``."""
+        state returned is a final unbiased solve to ``atol`` (the last anchor if that fails)."""
         nq = self.model.n_coordinates
         kappa, floor = self.ramp.kappa, 1e-6 * self.ramp.kappa
         for _ in range(self.ramp.max_relaxations):
