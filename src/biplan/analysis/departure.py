@@ -19,13 +19,13 @@ target when every fold has the target's majority phase.
 from __future__ import annotations
 
 import enum
-from dataclasses import dataclass, field, replace
+from dataclasses import dataclass, field
 
 import numpy as np
 
 from biplan._errors import ConfigError, check_range
 from biplan._jax import jnp
-from biplan.analysis.quasistatic import SUB_STEPS, SUB_TOLERANCE
+from biplan.analysis.quasistatic import SUB_TOLERANCE, inexact_newton
 from biplan.assembly import Load, Model
 from biplan.solvers.newton import Newton, Status, compiled_loop
 from biplan.solvers.observe import Observation, observe_batch
@@ -132,8 +132,7 @@ class _Stepper:
         self.loop = compiled_loop(model.layout, ramp.newton.free_steps)
         self.settings = ramp.newton.settings()
         # the proximal sub-problems of relax() are solved inexactly (as in quasistatic.relax)
-        inexact = replace(ramp.newton, max_steps=min(ramp.newton.max_steps, SUB_STEPS))
-        self.sub_settings = inexact.settings()
+        self.sub_settings = inexact_newton(ramp.newton).settings()
         self.d = 1.0 if ramp.displacement_control else 0.0
 
     def load(self, value: float) -> Load:

@@ -29,6 +29,12 @@ SUB_STEPS = 20
 SUB_TOLERANCE = 1e-6
 
 
+def inexact_newton(solver: Newton, sub_steps: int = SUB_STEPS) -> Newton:
+    """The Newton of a proximal sub-problem: ``solver`` with at most ``sub_steps`` iterations
+    (:func:`relax`, and the departure stepper's descent)."""
+    return replace(solver, max_steps=min(solver.max_steps, sub_steps))
+
+
 @dataclass(frozen=True)
 class QuasiStaticPath:
     """A recorded quasi-static path (one entry per step).
@@ -129,7 +135,7 @@ def relax(
         )
     anchor = z[: model.n_coordinates].copy()
     kappa_min = 1e-3 * kappa
-    inexact = replace(solver, max_steps=min(solver.max_steps, sub_steps))
+    inexact = inexact_newton(solver, sub_steps)
     for k in range(1, max_iterations + 1):
         step = solve_equilibrium(model.with_bias(anchor, kappa), inexact, z, load)
         if not (step.converged or step.residual_norm <= sub_tolerance):
