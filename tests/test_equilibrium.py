@@ -135,21 +135,39 @@ def test_compression_of_the_closed_tube_is_carried_by_contact(model6, force):
         )
 
 
-@pytest.mark.xfail(
-    reason="BUG (solver robustness, src/biplan/solvers/newton.py): warm-started from "
-    "relaxed_reference (a Solution: q and multipliers), a compressive end force F <= -0.05 N "
-    "ends with MAX_STEPS (||r||inf ~ 1e-3..1e-2, also with max_steps=500); from the same q "
-    "with zero multipliers, or from q = 0, Newton converges in ~10 steps. The culprit is the "
-    "reference's contact multipliers (lambda_c up to 7.7e-4 N at gaps ~1e-9 mm)",
-    strict=True,
-)
 @pytest.mark.parametrize("force", [-0.05, -0.3])
 def test_compression_from_the_relaxed_reference(model6, reference6, force):
-    # the same q without the multipliers converges: the equilibrium exists and is reachable
+    """Warm-started from ``relaxed_reference`` (q and its multipliers), a compressive end
+    force reaches the contact-carried equilibrium of the cold start. The reference's contact
+    multipliers are smoothing artefacts (λ_∂·w_∂ = ε²/2 at gaps ~1e-9 mm); from them Newton
+    drifts into penetration, so the solve is restarted from zero contact multipliers
+    (``Newton.contact_restart``) and says so."""
     cold = biplan.solve_equilibrium(model6, Newton(), reference6.q, Load.of_force(force))
     assert_equilibrium(model6, cold)
+    assert cold.restarts == 0
     sol = biplan.solve_equilibrium(model6, Newton(), reference6, Load.of_force(force))
     assert_equilibrium(model6, sol)
+    assert abs(sol.displacement) < 1e-9
+    np.testing.assert_allclose(sol.q, cold.q, atol=1e-8)
+    assert sol.restarts in (0, 1)
+    if sol.restarts:
+        assert "restarted from zero contact multipliers" in sol.message
+        assert sol.iterations > cold.iterations
+
+
+def test_contact_restart_only_after_a_failure(model6, reference6):
+    """A warm start that converges is not restarted (same steps with and without the
+    option), and a failed start without contact multipliers has nothing to restart."""
+    load = Load.of_force(0.5)
+    warm = biplan.solve_equilibrium(model6, Newton(), reference6, load)
+    plain = biplan.solve_equilibrium(model6, Newton(contact_restart=False), reference6, load)
+    assert warm.converged and warm.restarts == 0
+    assert warm.iterations == plain.iterations
+    np.testing.assert_array_equal(warm.z, plain.z)
+    failed = biplan.solve_equilibrium(model6, Newton(max_steps=1), reference6.q, load)
+    assert not failed.converged and failed.restarts == 0
+    with pytest.raises(biplan.ConfigError, match="contact_restart"):
+        Newton(contact_restart=1)
 
 
 def test_solution_reports_its_load(model6, reference6):

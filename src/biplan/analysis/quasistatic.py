@@ -31,8 +31,9 @@ SUB_TOLERANCE = 1e-6
 
 def inexact_newton(solver: Newton, sub_steps: int = SUB_STEPS) -> Newton:
     """The Newton of a proximal sub-problem: ``solver`` with at most ``sub_steps`` iterations
-    (:func:`relax`, and the departure stepper's descent)."""
-    return replace(solver, max_steps=min(solver.max_steps, sub_steps))
+    and no contact restart (:func:`relax`, and the departure stepper's descent: a failed
+    sub-problem stiffens the anchor spring instead)."""
+    return replace(solver, max_steps=min(solver.max_steps, sub_steps), contact_restart=False)
 
 
 @dataclass(frozen=True)

@@ -11,7 +11,7 @@ from __future__ import annotations
 
 import enum
 import functools
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from typing import Any, NamedTuple
 
 import numpy as np
@@ -67,6 +67,14 @@ class Newton:
         rows is so curved (ε = 1e-6) that the line search rejects full Newton steps that
         would converge in a few iterations (docs/maps.md); ≥ 0 (steps past ``max_steps``
         never happen).
+    contact_restart : bool
+        A solve that fails from a start with non-zero contact multipliers λ_∂ (a warm start
+        from a Solution) is tried once more from the same q, λ and μ with λ_∂ = 0 (default
+        True; :attr:`Solution.restarts` counts it). The contact multipliers of a converged
+        state can be artefacts of the smoothing (λ_∂·w_∂ = ε²/2 at gaps ~1e-9 mm): at that
+        corner of the Fischer–Burmeister function the Jacobian is near-singular, and when a
+        new load presses the contacts shut Newton drifts into penetration and stalls
+        (docs/model.md, "Warm starts and contact multipliers").
     """
 
     atol: float = 1e-9
@@ -74,6 +82,7 @@ class Newton:
     max_backtracks: int = 30
     armijo: float = 1e-4
     free_steps: int = 0
+    contact_restart: bool = True
 
     def __post_init__(self) -> None:
         check_range("Newton.atol", self.atol, low=0.0)
@@ -83,6 +92,8 @@ class Newton:
             if isinstance(v, bool) or not isinstance(v, int) or v < 1:
                 raise ConfigError(f"Newton.{name}", v, "an integer ≥ 1")
         check_integer("Newton.free_steps", self.free_steps, low=0)
+        if not isinstance(self.contact_restart, bool):
+            raise ConfigError("Newton.contact_restart", self.contact_restart, "True or False")
 
     def settings(self) -> Array:
         return jnp.asarray([self.atol, self.max_steps, self.max_backtracks, self.armijo])
@@ -415,8 +426,11 @@ class Solution:
     residual_norm : float
         ‖r‖∞ at the returned point.
     iterations : int
+        Newton steps, summed over the attempts.
     energy : float
         Π(q) [N·mm].
+    restarts : int
+        Restarts from zero contact multipliers tried (0 or 1; :attr:`Newton.contact_restart`).
     """
 
     q: np.ndarray
@@ -431,6 +445,7 @@ class Solution:
     energy: float
     z: np.ndarray = field(repr=False)
     data: StateData = field(repr=False, compare=False)
+    restarts: int = 0
 
     @property
     def converged(self) -> bool:
@@ -438,10 +453,17 @@ class Solution:
 
     @property
     def message(self) -> str:
-        return (
+        text = (
             f"{self.status.message} after {self.iterations} iterations "
             f"(‖r‖∞ = {self.residual_norm:.3e})"
         )
+        if self.restarts:
+            text += (
+                ", restarted from zero contact multipliers"
+                if self.converged
+                else "; a restart from zero contact multipliers failed too"
+            )
+        return text
 
 
 def _start_vector(model: Model, start: Any) -> np.ndarray:
@@ -528,9 +550,24 @@ def solve_equilibrium(
     loop = compiled_loop(model.layout, solver.free_steps)
     jload = load.for_kernel()
     out = loop(model.params, jnp.asarray(z0), jload, solver.settings())
+    steps, restarts = int(out.steps), 0
+    contacts = slice(model.n_coordinates + model.n_guides, model.n_unknowns - 1)
+    if (
+        solver.contact_restart
+        and int(out.status) != Status.CONVERGED.value
+        and np.any(z0[contacts] != 0.0)
+    ):
+        # the start's contact multipliers can be smoothing artefacts (Newton.contact_restart)
+        cold = z0.copy()
+        cold[contacts] = 0.0
+        retry = loop(model.params, jnp.asarray(cold), jload, solver.settings())
+        restarts, steps = 1, steps + int(retry.steps)
+        if int(retry.status) == Status.CONVERGED.value:
+            out = retry
     status = Status(int(out.status))
     rnorm = float(np.max(np.abs(np.asarray(out.r))))
-    sol = make_solution(model, np.asarray(out.z), load, status, rnorm, int(out.steps))
+    sol = make_solution(model, np.asarray(out.z), load, status, rnorm, steps)
+    sol = replace(sol, restarts=restarts) if restarts else sol
     if throw and not sol.converged:
         raise ConvergenceError(f"equilibrium solve for {load}: {sol.message}")
     return sol
