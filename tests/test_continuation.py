@@ -17,6 +17,7 @@ import pytest
 
 import biplan
 from biplan.assembly import Load
+from biplan.solvers.continuation import FULL_CONTACT_PENETRATION
 from biplan.solvers.newton import Status, make_solution
 from biplan.solvers.observe import observe_batch
 
@@ -137,10 +138,43 @@ def test_compression_past_full_contact_stops_with_a_status(model6):
         None,
         biplan.Control.displacement(-1.0),
     )
+    """The closed tube cannot shorten: with the contact compliance c the contacts would have
+    to carry absurd forces (c·λ_∂ = penetration), so the path stops at full contact."""
     assert not p.completed
-    assert p.status in (biplan.PathStatus.STALLED, biplan.PathStatus.MAX_STEPS)
+    assert p.status is biplan.PathStatus.FULL_CONTACT, p.message
+    assert "full contact" in p.message
     assert np.all(np.isfinite(p.force)) and np.all(np.isfinite(p.q))
-    assert p.displacement.min() > -1.0
+    assert p.displacement.min() > -1e-4
+    c = model6.options.contact_compliance
+    for z in p.z:
+        q, _, lam_c, _ = model6.split(z)
+        assert -model6.contact_gaps(q).min() <= FULL_CONTACT_PENETRATION
+        assert lam_c.max() <= 1.5 * FULL_CONTACT_PENETRATION / c
+
+
+def test_locked_contacts_have_bounded_multipliers(model4):
+    """The fully bistable tube (no base fold) under a 0.4 N end force: the contacts at the
+    helical-fold starts of closed modules are held at w_∂ = 0 by the kinematics (their
+    gradients lie in the span of the active constraints), so the smoothed rows alone
+    (c = 0) admit no finite multiplier and Newton leaves them anywhere above ε²/(2·atol):
+    11 N and 30 N on this path. With the contact compliance c a held contact has
+    ŵ = c λ_∂ and λ_∂ = ε/√(2c) (to the Newton tolerance on its row, whose scale is ε:
+    within a factor 2); every other reaction stays below the end force."""
+    method = biplan.ArcLength(initial_step=0.05, max_step=0.1)
+    control = biplan.Control.force(0.4)
+    p = biplan.trace_path(model4, method, None, control)
+    assert p.completed
+    eps, c = model4.options.contact_smoothing, model4.options.contact_compliance
+    held = eps / np.sqrt(2.0 * c)
+    lam_c = np.array([model4.split(z)[2] for z in p.z[1:]])
+    assert lam_c.max() < 0.4
+    gaps = np.array([model4.contact_gaps(model4.split(z)[0]) for z in p.z[1:]])
+    locked = np.abs(gaps) < 1e-12
+    assert locked.any()
+    assert np.all((lam_c[locked] > 0.5 * held) & (lam_c[locked] < 2.0 * held))
+    rigid = biplan.Model(model4.tube, model4.options.with_(contact_compliance=0.0))
+    p0 = biplan.trace_path(rigid, method, None, control)
+    assert np.array([rigid.split(z)[2] for z in p0.z]).max() > 1.0
 
 
 def test_pressure_control_is_an_end_force(model6):

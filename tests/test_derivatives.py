@@ -164,10 +164,13 @@ def test_lagrangian_hessian(lag_model, load, rng):
 )
 def test_residual_structure(kkt_model, kkt_configs, load, rng):
     """r = [∇Π − F∇z_p + Gᵀλ − Cᵀλ_∂ + d μ ∇z_p, g, φ_SFB(w_∂, λ_∂), d(z_p − U) + (1 − d)μ]
-    and its Jacobian [[K, Gᵀ, −Cᵀ, d∇z_p], [G, 0, 0, 0], [(w/ρ − 1)C, 0, diag(λ/ρ − 1), 0],
-    [d∇z_pᵀ, 0, 0, 1 − d]] (MODEL.md §11)."""
+    and its Jacobian [[K, Gᵀ, −Cᵀ, d∇z_p], [G, 0, 0, 0], [(ŵ/ρ − 1)C, 0, diag(c(ŵ/ρ − 1) +
+    λ/ρ − 1), 0], [d∇z_pᵀ, 0, 0, 1 − d]] (MODEL.md §11), ŵ = w + cλ with the contact
+    compliance c."""
     model = kkt_model
     eps = model.options.contact_smoothing
+    c = model.options.contact_compliance
+    assert c > 0.0  # the default: the compliance terms are checked below
     d = 1.0 if load.is_displacement_controlled else 0.0
     nq, ng, nc = model.n_coordinates, model.n_guides, model.n_contacts
     for q in kkt_configs:
@@ -183,13 +186,14 @@ def test_residual_structure(kkt_model, kkt_configs, load, rng):
         np.testing.assert_allclose(r[:nq], r1, atol=1e-11 * scale)
         np.testing.assert_allclose(r[nq : nq + ng], model.constraints(q), atol=1e-14)
         np.testing.assert_allclose(
-            r[nq + ng : nq + ng + nc], np.asarray(sfb(w, lam_c, eps)), atol=1e-14
+            r[nq + ng : nq + ng + nc], np.asarray(sfb(w + c * lam_c, lam_c, eps)), atol=1e-14
         )
         expected_last = d * (model.load_displacement(q) - load.displacement) + (1 - d) * mu
         assert r[-1] == pytest.approx(expected_last, abs=1e-13)
 
         jac = model.jacobian(z, load)
-        rho = np.sqrt(w**2 + lam_c**2 + eps**2)
+        w_hat = w + c * lam_c
+        rho = np.sqrt(w_hat**2 + lam_c**2 + eps**2)
         sl = slice(nq + ng, nq + ng + nc)
         k = model.lagrangian_hessian(z, load)
         np.testing.assert_allclose(jac[:nq, :nq], k, atol=1e-10 * max(1.0, np.abs(k).max()))
@@ -198,8 +202,10 @@ def test_residual_structure(kkt_model, kkt_configs, load, rng):
         np.testing.assert_allclose(jac[:nq, -1], d * dzp, atol=1e-12)
         np.testing.assert_allclose(jac[nq : nq + ng, :nq], g_jac, atol=1e-12)
         np.testing.assert_allclose(jac[nq : nq + ng, nq:], 0.0, atol=0)
-        np.testing.assert_allclose(jac[sl, :nq], (w / rho - 1)[:, None] * c_jac, atol=1e-11)
-        np.testing.assert_allclose(jac[sl, sl], np.diag(lam_c / rho - 1), atol=1e-12)
+        np.testing.assert_allclose(jac[sl, :nq], (w_hat / rho - 1)[:, None] * c_jac, atol=1e-11)
+        np.testing.assert_allclose(
+            jac[sl, sl], np.diag(c * (w_hat / rho - 1) + lam_c / rho - 1), atol=1e-12
+        )
         np.testing.assert_allclose(jac[sl, nq : nq + ng], 0.0, atol=0)
         np.testing.assert_allclose(jac[-1, :nq], d * dzp, atol=1e-12)
         assert jac[-1, -1] == pytest.approx(1 - d, abs=0)

@@ -90,6 +90,8 @@ def test_single_bistable_fold_has_two_states_known_by_hand(catalogue1, model1):
     assert open_.u_z == pytest.approx(w_s, rel=1e-6)
     assert abs(open_.u_r) < 1e-6 and abs(open_.theta) < 1e-6
     assert all(s.matches_seed for s in catalogue1.seeds)
+    # both states are straight: Θ = 0, not rounding-level θ divided by a rounding-level max
+    assert [row["Theta"] for row in catalogue1.rows()] == [0.0, 0.0]
 
 
 def test_states_are_stable_equilibria(catalogue4, model4):

@@ -59,6 +59,7 @@ class ModelParams(NamedTuple):
     helical: Array  # (N, 5) law coefficients (k1, k2, k3, w1, w2)
     circular: Array  # (Nc, 5)
     smoothing: Array  # ε of the SFB function
+    compliance: Array  # c [mm/N] of the contact rows φ_ε(w + c λ, λ)
     smooth_min_width: Array  # τ of ContactForm.MINIMUM
     bias_anchor: Array  # (n_q,) anchor q_a of the optional proximal bias ½κ‖q − q_a‖²
     bias_stiffness: Array  # κ ≥ 0 (0: no bias)
@@ -253,7 +254,7 @@ def residual(layout: TubeLayout, p: ModelParams, z: Array, load: Load) -> Array:
         [
             grad_q,
             kin.guides,
-            sfb(_gaps(layout, p, kin), lam_c, p.smoothing),
+            sfb(_gaps(layout, p, kin) + p.compliance * lam_c, lam_c, p.smoothing),
             (d * (zp - load.displacement) + (1.0 - d) * mu)[None],
         ]
     )
@@ -277,7 +278,8 @@ def kkt_jacobian(layout: TubeLayout, p: ModelParams, z: Array, load: Load) -> Ar
          [d aᵀ,     0,   0,        1 − d ]]
 
     K = ∇²_q L (autodiff Hessian over the n_q coordinates), [G; C; aᵀ] the autodiff Jacobian
-    of (g, w_∂, z_p), D_w = diag(w/ρ − 1), D_λ = diag(λ/ρ − 1), ρ = √(w² + λ² + ε²).
+    of (g, w_∂, z_p), D_w = diag(ŵ/ρ − 1), D_λ = diag(c (ŵ/ρ − 1) + λ/ρ − 1),
+    ρ = √(ŵ² + λ² + ε²), ŵ = w + c λ (c: ``ModelOptions.contact_compliance``).
     Cheaper to compile and run than differentiating the residual over all unknowns.
     """
     nq, ng, nc = _sizes(layout)
@@ -286,7 +288,7 @@ def kkt_jacobian(layout: TubeLayout, p: ModelParams, z: Array, load: Load) -> Ar
     rest = z[nq:]
     k = jax.hessian(lambda qq: lagrangian(layout, p, jnp.concatenate([qq, rest]), load, kin_ref))(q)
     jc = jax.jacfwd(lambda qq: _constraint_values(layout, p, qq, kin_ref))(q)
-    w = _constraint_values(layout, p, q, kin_ref)[ng : ng + nc]
+    w = _constraint_values(layout, p, q, kin_ref)[ng : ng + nc] + p.compliance * lam_c
     g_mat, c_mat, a = jc[:ng], jc[ng : ng + nc], jc[-1]
     rho = jnp.sqrt(w**2 + lam_c**2 + p.smoothing**2)
     d = load.displacement_control
@@ -297,7 +299,7 @@ def kkt_jacobian(layout: TubeLayout, p: ModelParams, z: Array, load: Load) -> Ar
         [
             (w / rho - 1.0)[:, None] * c_mat,
             zeros((nc, ng)),
-            jnp.diag(lam_c / rho - 1.0),
+            jnp.diag(p.compliance * (w / rho - 1.0) + lam_c / rho - 1.0),
             zeros((nc, 1)),
         ],
         axis=1,
@@ -460,6 +462,7 @@ class Model:
             _law_rows(tube.helical_laws),
             _law_rows(tube.circular_laws),
             jnp.asarray(tube.options.contact_smoothing),
+            jnp.asarray(tube.options.contact_compliance),
             jnp.asarray(tube.options.smooth_min_width),
             jnp.zeros(self.layout.n_coordinates),
             jnp.asarray(0.0),

@@ -155,6 +155,12 @@ class ModelOptions:
         Treat contacts with λ_∂ ≈ 0 and w ≈ 0 as active in the stability test (S1).
     contact_smoothing : float
         ε of the smoothed Fischer–Burmeister function (SI Eq. sfb), > 0.
+    contact_compliance : float
+        c [mm/N] ≥ 0 of the contact rows φ_ε(w_∂ + c λ_∂, λ_∂) = 0: a contact carrying λ_∂
+        may close past flat by c λ_∂. With c = 0 (the SI's rows) a contact whose gap is
+        held at zero by the others (closed-fold ends where w_∂ is of second order in the
+        opening) has no finite smoothed multiplier; c > 0 bounds it by ε/√(2c)
+        (docs/model.md, "Degenerate contacts").
     smooth_min_width : float
         τ [mm] of the smooth minimum used by ``ContactForm.MINIMUM``, > 0.
     """
@@ -170,6 +176,7 @@ class ModelOptions:
     weak_contacts_active: bool = False
     contact_smoothing: float = 1e-6
     smooth_min_width: float = 1e-3
+    contact_compliance: float = 1e-6
 
     def __post_init__(self) -> None:
         for name, cls in _ENUMS.items():
@@ -186,6 +193,17 @@ class ModelOptions:
             object.__setattr__(
                 self, name, check_range(f"options.{name}", getattr(self, name), low=0.0, high=1.0)
             )
+        object.__setattr__(
+            self,
+            "contact_compliance",
+            check_range(
+                "options.contact_compliance",
+                self.contact_compliance,
+                low=0.0,
+                high=1e-3,
+                low_open=False,
+            ),
+        )
 
     def with_(self, **changes: Any) -> ModelOptions:
         """Return a copy with some readings changed (validated)."""

@@ -18,7 +18,7 @@ from biplan.analysis.states import Enumeration, SeedOutcome, StableState
 from biplan.assembly import Model
 from biplan.geometry import FoldRef
 
-__all__ = ["CSV_COLUMNS", "StateCatalogue"]
+__all__ = ["CSV_COLUMNS", "STRAIGHT", "StateCatalogue"]
 
 #: Columns of the CSV form, in order.
 CSV_COLUMNS = (
@@ -35,6 +35,11 @@ CSV_COLUMNS = (
     "n_open_circular",
     "seeds",
 )
+
+#: End slopes |θ| at or below this [rad] count as straight: the contact smoothing (ε = 1e-6)
+#: leaves closed folds open by O(ε) mm, which tilts the end of a tube whose open folds are all
+#: circular by ~1e-7 rad. Normalising by such a max|θ| would turn rounding into Θ = ±1.
+STRAIGHT = 1e-6
 
 
 @dataclass(frozen=True)
@@ -89,9 +94,9 @@ class StateCatalogue:
         return float(theta.max()) if theta.size else 0.0
 
     def slope(self, state: StableState) -> float:
-        """Θ = θ / max|θ| (0 when every state is straight)."""
+        """Θ = θ / max|θ| (0 when every state is straight: max|θ| ≤ :data:`STRAIGHT`)."""
         m = self.max_abs_theta
-        return state.theta / m if m > 0 else 0.0
+        return state.theta / m if m > STRAIGHT else 0.0
 
     def open_counts(self, state: StableState) -> tuple[int, int]:
         """(open helical, open circular) folds of a state."""

@@ -43,6 +43,12 @@ __all__ = ["ArcLength", "LoadStepping", "trace_path"]
 #: of up to 2047 steps shares one compiled loop.
 BUFFER_QUANTUM = 2048
 
+#: Largest contact penetration max(−w_∂) [mm] of a path state: 10 ε. With the contact
+#: compliance c (``ModelOptions.contact_compliance``) a contact carrying λ_∂ closes past flat
+#: by c λ_∂; a path that needs more (λ_∂ ≥ 10 N at c = 1e-6 mm/N) is pressing a tube that is
+#: closed solid and stops there with ``PathStatus.FULL_CONTACT``.
+FULL_CONTACT_PENETRATION = 1e-5
+
 
 @dataclass(frozen=True)
 class _Stepper:
@@ -187,7 +193,8 @@ def trace_path(
     -------
     Path
         Check ``path.status``: ``COMPLETED`` when Λ reached ``control.stop``; otherwise the
-        path up to the last converged state, with the reason in ``path.message``.
+        path up to the last converged state, with the reason in ``path.message``
+        (``FULL_CONTACT``: the tube is pressed shut, :data:`FULL_CONTACT_PENETRATION`).
     """
     if control is None:
         raise ConfigError("control", None, "a Control (Control.force / displacement / pressure)")
@@ -223,6 +230,11 @@ def trace_path(
     status = PathStatus.from_code(int(out.status))
     if count > 1 and not np.all(np.isfinite(z)):
         status = PathStatus.NONFINITE
+    solid = _first_solid(model, z)
+    if solid is not None:
+        count = max(solid, 1)
+        z, lam, tang, steps, its = z[:count], lam[:count], tang[:count], steps[:count], its[:count]
+        status = PathStatus.FULL_CONTACT
 
     events: list[Event] = []
     inserted: list[tuple[int, np.ndarray, float]] = []
@@ -270,6 +282,19 @@ def trace_path(
         stats=stats,
         direction=tang[:, -1],
     )
+
+
+def _first_solid(model: Model, z: np.ndarray) -> int | None:
+    """Index of the first state whose contacts close past flat by more than
+    :data:`FULL_CONTACT_PENETRATION`, or None."""
+    nq = model.n_coordinates
+    for i, zi in enumerate(z):
+        if (
+            np.all(np.isfinite(zi))
+            and -model.contact_gaps(zi[:nq]).min() > FULL_CONTACT_PENETRATION
+        ):
+            return i
+    return None
 
 
 def _loads(ctl: np.ndarray, lam: np.ndarray) -> Load:

@@ -74,7 +74,7 @@ class Newton:
         state can be artefacts of the smoothing (λ_∂·w_∂ = ε²/2 at gaps ~1e-9 mm): at that
         corner of the Fischer–Burmeister function the Jacobian is near-singular, and when a
         new load presses the contacts shut Newton drifts into penetration and stalls
-        (docs/model.md, "Warm starts and contact multipliers").
+        (docs/model.md, "Degenerate contacts").
     """
 
     atol: float = 1e-9

@@ -66,6 +66,7 @@ class PathStatus(enum.Enum):
     MAX_STEPS = 1
     STALLED = 2
     NONFINITE = 3
+    FULL_CONTACT = 4
 
     @staticmethod
     def from_code(code: int) -> PathStatus:
@@ -82,6 +83,11 @@ class PathStatus(enum.Enum):
                 "ArcLength or dynamics — or the end of the admissible range, e.g. full contact)"
             ),
             3: "a state became non-finite",
+            4: (
+                "stopped at full contact: going on would press a closed fold past flat by "
+                "more than the contact compliance allows (the tube is closed solid; "
+                'docs/model.md, "Degenerate contacts")'
+            ),
         }[self.value]
 
 
