@@ -152,31 +152,6 @@ def test_compression_past_full_contact_stops_with_a_status(model6):
         assert lam_c.max() <= 1.5 * FULL_CONTACT_PENETRATION / c
 
 
-def test_locked_contacts_have_bounded_multipliers(model4):
-    """The fully bistable tube (no base fold) under a 0.4 N end force: the contacts at the
-    helical-fold starts of closed modules are held at w_∂ = 0 by the kinematics (their
-    gradients lie in the span of the active constraints), so the smoothed rows alone
-    (c = 0) admit no finite multiplier and Newton leaves them anywhere above ε²/(2·atol):
-    11 N and 30 N on this path. With the contact compliance c a held contact has
-    ŵ = c λ_∂ and λ_∂ = ε/√(2c) (to the Newton tolerance on its row, whose scale is ε:
-    within a factor 2); every other reaction stays below the end force."""
-    method = biplan.ArcLength(initial_step=0.05, max_step=0.1)
-    control = biplan.Control.force(0.4)
-    p = biplan.trace_path(model4, method, None, control)
-    assert p.completed
-    eps, c = model4.options.contact_smoothing, model4.options.contact_compliance
-    held = eps / np.sqrt(2.0 * c)
-    lam_c = np.array([model4.split(z)[2] for z in p.z[1:]])
-    assert lam_c.max() < 0.4
-    gaps = np.array([model4.contact_gaps(model4.split(z)[0]) for z in p.z[1:]])
-    locked = np.abs(gaps) < 1e-12
-    assert locked.any()
-    assert np.all((lam_c[locked] > 0.5 * held) & (lam_c[locked] < 2.0 * held))
-    rigid = biplan.Model(model4.tube, model4.options.with_(contact_compliance=0.0))
-    p0 = biplan.trace_path(rigid, method, None, control)
-    assert np.array([rigid.split(z)[2] for z in p0.z]).max() > 1.0
-
-
 def test_pressure_control_is_an_end_force(model6):
     p_stop = 0.1  # MPa
     p = biplan.trace_path(

@@ -168,6 +168,33 @@ def test_compression_from_the_relaxed_reference(model6, reference6, force):
         assert sol.iterations > cold.iterations
 
 
+def test_held_contacts_have_bounded_multipliers(model4):
+    """The fully bistable tube (no base fold) stepped to a 0.4 N end force: the contacts at
+    the helical-fold starts of closed modules are held at w_∂ = 0 by the kinematics (their
+    gradients lie in the span of the active constraints), so the smoothed rows alone (c = 0)
+    admit no finite multiplier and Newton leaves them anywhere above ε²/(2·atol): 0.10,
+    0.83, 3.3 and 13 N at 0.1 … 0.4 N. With the contact compliance c a held contact has
+    ŵ = c λ_∂ and λ_∂ = ε/√(2c) (to the Newton tolerance on its row, whose scale is ε:
+    within a factor 2); every other reaction stays below the end force."""
+    eps, c = model4.options.contact_smoothing, model4.options.contact_compliance
+    held = eps / np.sqrt(2.0 * c)
+    rigid = biplan.Model(model4.tube, model4.options.with_(contact_compliance=0.0))
+    largest = {}
+    for m in (model4, rigid):
+        sol = biplan.relaxed_reference(m)
+        for force in (0.1, 0.2, 0.3, 0.4):
+            sol = biplan.solve_equilibrium(m, Newton(), sol, Load.of_force(force))
+            assert_equilibrium(m, sol)
+            lam_c, gaps = sol.contact_multipliers, m.contact_gaps(sol.q)
+            largest[m] = lam_c.max()
+            if m is model4:
+                assert lam_c.max() < force
+                locked = np.abs(gaps) < 1e-12
+                assert locked.any()
+                assert np.all((lam_c[locked] > 0.5 * held) & (lam_c[locked] < 2.0 * held))
+    assert largest[rigid] > 1.0 > 0.4 > largest[model4]
+
+
 def test_contact_restart_only_after_a_failure(model6, reference6):
     """A warm start that converges is not restarted (same steps with and without the
     option), and a failed start without contact multipliers has nothing to restart."""

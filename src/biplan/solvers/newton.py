@@ -72,9 +72,10 @@ class Newton:
         from a Solution) is tried once more from the same q, λ and μ with λ_∂ = 0 (default
         True; :attr:`Solution.restarts` counts it). The contact multipliers of a converged
         state can be artefacts of the smoothing (λ_∂·w_∂ = ε²/2 at gaps ~1e-9 mm): at that
-        corner of the Fischer–Burmeister function the Jacobian is near-singular, and when a
-        new load presses the contacts shut Newton drifts into penetration and stalls
-        (docs/model.md, "Degenerate contacts").
+        corner of the Fischer–Burmeister function the Jacobian is near-singular, and with
+        ``ModelOptions.contact_compliance = 0`` Newton drifts into penetration and stalls
+        when a new load presses the contacts shut. With the default compliance this is a
+        safety net (docs/model.md, "Degenerate contacts").
     """
 
     atol: float = 1e-9
