@@ -159,13 +159,14 @@ def test_options_are_parsed() -> None:
     text = BASE.replace(
         'mirror = "reflection"',
         'mirror = "point"\ntransition_reading = "branch_lengths"\n'
-        "weak_contacts_active = true\ncontact_smoothing = 1e-5",
+        "weak_contacts_active = true\ncontact_smoothing = 1e-5\ncontact_compliance = 0.0",
     )
     tube = load_config_text(text)
     assert tube.options.mirror is MirrorConvention.POINT
     assert tube.options.transition_reading is TransitionReading.BRANCH_LENGTHS
     assert tube.options.weak_contacts_active is True
     assert tube.options.contact_smoothing == 1e-5
+    assert tube.options.contact_compliance == 0.0
     # transitions are read with the configured reading: w2 = l1 + l2
     assert tube.circular_laws[0].transitions == (0.2, 1.5)
 
@@ -262,6 +263,8 @@ _BAD = [
     ('mirror = "reflection"', "weak_contacts_active = 1", "options.weak_contacts_active"),
     ('mirror = "reflection"', "contact_smoothing = -1.0", "options.contact_smoothing"),
     ('mirror = "reflection"', "contact_smoothing = nan", "options.contact_smoothing"),
+    ('mirror = "reflection"', "contact_compliance = -1e-6", "options.contact_compliance"),
+    ('mirror = "reflection"', "contact_compliance = 0.01", "options.contact_compliance"),
     # missing required keys and tables
     ("radius = 2.0\n", "", "geometry.radius"),
     ("helical_angle = 60.0\n", "", "geometry.helical_angle"),

@@ -158,8 +158,8 @@ class ModelOptions:
     contact_compliance : float
         c [mm/N] ≥ 0 of the contact rows φ_ε(w_∂ + c λ_∂, λ_∂) = 0: a contact carrying λ_∂
         may close past flat by c λ_∂. With c = 0 (the SI's rows) a contact whose gap is
-        held at zero by the others (closed-fold ends where w_∂ is of second order in the
-        opening) has no finite smoothed multiplier; c > 0 bounds it by ε/√(2c)
+        held at zero by the kinematics (the start of a closed helical fold) has no finite
+        smoothed multiplier; c > 0 bounds it by ε/√(2c)
         (docs/model.md, "Degenerate contacts").
     smooth_min_width : float
         τ [mm] of the smooth minimum used by ``ContactForm.MINIMUM``, > 0.
