@@ -34,7 +34,7 @@ from biplan.assembly import Load, Model
 from biplan.solvers import _pathkernel as pk
 from biplan.solvers.control import Control
 from biplan.solvers.newton import Newton, Solution, solve_equilibrium
-from biplan.solvers.observe import CHUNK, STABILITY_TOL, observe_batch
+from biplan.solvers.observe import CHUNK, STABILITY_TOL, Observation, observe_batch
 from biplan.solvers.results import Event, Path, PathStats, PathStatus
 
 __all__ = ["ArcLength", "LoadStepping", "trace_path"]
@@ -230,15 +230,16 @@ def trace_path(
     status = PathStatus.from_code(int(out.status))
     if count > 1 and not np.all(np.isfinite(z)):
         status = PathStatus.NONFINITE
-    solid = _first_solid(model, z)
-    if solid is not None:
-        count = max(solid, 1)
-        z, lam, tang, steps, its = z[:count], lam[:count], tang[:count], steps[:count], its[:count]
-        status = PathStatus.FULL_CONTACT
 
     events: list[Event] = []
     inserted: list[tuple[int, np.ndarray, float]] = []
     obs = observe_batch(model.layout, model.params, z, _loads(ctl, lam))
+    solid = np.flatnonzero(obs.penetration > FULL_CONTACT_PENETRATION)
+    if solid.size:
+        count = max(int(solid[0]), 1)
+        z, lam, tang, steps, its = z[:count], lam[:count], tang[:count], steps[:count], its[:count]
+        obs = Observation(*(v[:count] for v in obs))
+        status = PathStatus.FULL_CONTACT
     if method.locate_events and count > 1:
         for i in _sign_changes(obs.min_eigenvalue):
             found = _locate(model, ctl, z[i], lam[i], z[i + 1], lam[i + 1], obs, i, method, weight)
@@ -282,19 +283,6 @@ def trace_path(
         stats=stats,
         direction=tang[:, -1],
     )
-
-
-def _first_solid(model: Model, z: np.ndarray) -> int | None:
-    """Index of the first state whose contacts close past flat by more than
-    :data:`FULL_CONTACT_PENETRATION`, or None."""
-    nq = model.n_coordinates
-    for i, zi in enumerate(z):
-        if (
-            np.all(np.isfinite(zi))
-            and -model.contact_gaps(zi[:nq]).min() > FULL_CONTACT_PENETRATION
-        ):
-            return i
-    return None
 
 
 def _loads(ctl: np.ndarray, lam: np.ndarray) -> Load:

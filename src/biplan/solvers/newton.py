@@ -552,15 +552,10 @@ def solve_equilibrium(
     jload = load.for_kernel()
     out = loop(model.params, jnp.asarray(z0), jload, solver.settings())
     steps, restarts = int(out.steps), 0
-    contacts = slice(model.n_coordinates + model.n_guides, model.n_unknowns - 1)
-    if (
-        solver.contact_restart
-        and int(out.status) != Status.CONVERGED.value
-        and np.any(z0[contacts] != 0.0)
-    ):
+    q0, lam0, lam_c0, mu0 = model.split(z0)
+    if solver.contact_restart and int(out.status) != Status.CONVERGED.value and np.any(lam_c0):
         # the start's contact multipliers can be smoothing artefacts (Newton.contact_restart)
-        cold = z0.copy()
-        cold[contacts] = 0.0
+        cold = model.pack(q0, lam0, None, mu0)
         retry = loop(model.params, jnp.asarray(cold), jload, solver.settings())
         restarts, steps = 1, steps + int(retry.steps)
         if int(retry.status) == Status.CONVERGED.value:

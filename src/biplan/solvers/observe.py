@@ -80,6 +80,7 @@ class Observation(NamedTuple):
     dof: Array  # dimension of the admissible perturbation space
     n_active_contacts: Array
     constraint_residual: Array  # max |g| [mm]
+    penetration: Array  # max(−w_∂, 0) [mm]: how far a contact closes past flat
 
 
 def min_reduced_eigenvalue(k: Array, a: Array, active: Array) -> tuple[Array, Array]:
@@ -163,6 +164,7 @@ def observe(
         dof=dof,
         n_active_contacts=jnp.sum(contact),
         constraint_residual=jnp.max(jnp.abs(guide_values(layout, p, z[:nq]))),
+        penetration=jnp.maximum(-jnp.min(data.gaps), 0.0),
     )
 
 
