@@ -17,10 +17,13 @@ here (the kernels are many small matrices, parallelised by batching); set
 hangs or crashes on some batched kernels on Linux x86-64 (jax-ml/jax#39257); the hang seen here
 with the multi-threaded pool already off matches it.
 
-``BIPLAN_FAST_COMPILE=on`` compiles with LLVM's cheap pipeline
-(``--xla_backend_optimization_level=0 --xla_llvm_disable_expensive_passes=true``): the
-six-module dynamics chunk compiles ~40 % faster and runs ~2× slower, which pays for short runs
-dominated by compilation (the test suite sets it; docs/performance.md, "Suite time").
+``BIPLAN_FAST_COMPILE=on`` compiles the large batched kernels (dynamics chunk, path kernel,
+Newton pool, batched relaxation, observation, band relaxation, design-map lanes) with LLVM's
+cheap pipeline (:data:`CHEAP_PIPELINE`, passed per kernel by :func:`kernel_options`): they
+compile 25–40 % faster and run up to ~2× slower, which pays for short runs dominated by
+compilation (the test suite sets it; docs/performance.md, "Suite time"). The scalar Newton loop
+keeps XLA's default pipeline either way: it runs ~5× slower without it, and a displacement
+sweep calls it hundreds of times.
 """
 
 from __future__ import annotations
@@ -33,8 +36,6 @@ _flags = os.environ.get("XLA_FLAGS", "")
 _wanted = ["--xla_cpu_experimental_ynn_fusion_type="]
 if os.environ.get("BIPLAN_EIGEN_THREADS", "").lower() not in _ON:
     _wanted.append("--xla_cpu_multi_thread_eigen=false")
-if os.environ.get("BIPLAN_FAST_COMPILE", "").lower() in _ON:
-    _wanted += ["--xla_backend_optimization_level=0", "--xla_llvm_disable_expensive_passes=true"]
 for _flag in _wanted:  # a flag the user set wins
     if _flag.split("=")[0].removeprefix("--") not in _flags:
         _flags += " " + _flag
@@ -77,7 +78,32 @@ if _cache.lower() not in {"", "0", "off", "none"}:
 
 import jax.numpy as jnp  # noqa: E402
 
-__all__ = ["jax", "jnp", "memory_map_count", "release_compiled_kernels"]
+__all__ = [
+    "CHEAP_PIPELINE",
+    "jax",
+    "jnp",
+    "kernel_options",
+    "memory_map_count",
+    "release_compiled_kernels",
+]
+
+#: XLA debug options of LLVM's cheap pipeline (``BIPLAN_FAST_COMPILE=on``).
+CHEAP_PIPELINE: dict[str, int | bool] = {
+    "xla_backend_optimization_level": 0,
+    "xla_llvm_disable_expensive_passes": True,
+}
+
+
+def kernel_options() -> dict[str, int | bool] | None:
+    """``compiler_options`` for ``jax.jit`` of a large batched kernel: :data:`CHEAP_PIPELINE`
+    when ``BIPLAN_FAST_COMPILE`` is on (read at each call), else None (XLA's default).
+
+    A pipeline option the user set in ``XLA_FLAGS`` wins (it is left out here).
+    """
+    if os.environ.get("BIPLAN_FAST_COMPILE", "").lower() not in _ON:
+        return None
+    flags = os.environ.get("XLA_FLAGS", "")
+    return {k: v for k, v in CHEAP_PIPELINE.items() if k not in flags}
 
 
 def memory_map_count() -> int:

@@ -49,7 +49,7 @@ from typing import Any
 import numpy as np
 
 from biplan._errors import ConfigError, check_range
-from biplan._jax import jax, jnp
+from biplan._jax import jax, jnp, kernel_options
 from biplan.analysis.design_map import stack_params
 from biplan.assembly import Load, Model, TubeLayout
 from biplan.geometry import Tube
@@ -154,7 +154,7 @@ OBSERVE_LANES = 8
 
 @functools.lru_cache(maxsize=16)
 def _observe_kernel(layout: TubeLayout) -> Any:
-    return jax.jit(jax.vmap(functools.partial(_observe, layout)))
+    return jax.jit(jax.vmap(functools.partial(_observe, layout)), compiler_options=kernel_options())
 
 
 def seeds(model: Model, u: float) -> np.ndarray:

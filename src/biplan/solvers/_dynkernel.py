@@ -20,7 +20,7 @@ from __future__ import annotations
 import functools
 from typing import Any, NamedTuple
 
-from biplan._jax import jax, jnp
+from biplan._jax import jax, jnp, kernel_options
 from biplan.assembly import (
     Load,
     ModelParams,
@@ -177,7 +177,7 @@ def chunk(
 @functools.lru_cache(maxsize=32)
 def compiled_chunk(layout: TubeLayout) -> Any:
     """The jitted :func:`chunk` of a layout."""
-    return jax.jit(functools.partial(chunk, layout))
+    return jax.jit(functools.partial(chunk, layout), compiler_options=kernel_options())
 
 
 @functools.lru_cache(maxsize=32)

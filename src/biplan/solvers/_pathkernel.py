@@ -22,7 +22,7 @@ import functools
 from typing import Any, NamedTuple
 
 from biplan import _linalg as linalg
-from biplan._jax import jax, jnp
+from biplan._jax import jax, jnp, kernel_options
 from biplan.assembly import Load, ModelParams, TubeLayout, kkt_jacobian, residual, sizes
 from biplan.solvers._damped import damped_newton
 
@@ -257,7 +257,9 @@ def path_loop(
 @functools.lru_cache(maxsize=32)
 def compiled_path(layout: TubeLayout, buffer_size: int) -> Any:
     """The jitted :func:`path_loop` of a layout and buffer size."""
-    return jax.jit(functools.partial(path_loop, layout, buffer_size))
+    return jax.jit(
+        functools.partial(path_loop, layout, buffer_size), compiler_options=kernel_options()
+    )
 
 
 @functools.lru_cache(maxsize=32)
@@ -265,4 +267,6 @@ def compiled_corrector(layout: TubeLayout) -> Any:
     """The jitted corrector, vmapped over (z0, Λ0, row_z, row_l, ρ)."""
     fn = functools.partial(corrector, layout, axis_name="lanes")
     in_axes = (None, 0, 0, None, 0, 0, 0, None, None)
-    return jax.jit(jax.vmap(fn, in_axes=in_axes, axis_name="lanes"))
+    return jax.jit(
+        jax.vmap(fn, in_axes=in_axes, axis_name="lanes"), compiler_options=kernel_options()
+    )

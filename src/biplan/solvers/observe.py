@@ -28,7 +28,7 @@ from typing import Any, NamedTuple
 import numpy as np
 
 from biplan import _linalg as linalg
-from biplan._jax import jax, jnp
+from biplan._jax import jax, jnp, kernel_options
 from biplan.assembly import (
     Load,
     ModelParams,
@@ -172,7 +172,7 @@ def observe(
 def _batched(layout: TubeLayout) -> Any:
     weak = layout.options.weak_contacts_active
     fn = functools.partial(observe, layout, weak_contacts=weak)
-    return jax.jit(jax.vmap(fn, in_axes=(None, 0, 0)))
+    return jax.jit(jax.vmap(fn, in_axes=(None, 0, 0)), compiler_options=kernel_options())
 
 
 def observe_batch(layout: TubeLayout, params: ModelParams, z: Array, loads: Load) -> Observation:

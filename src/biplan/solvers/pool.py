@@ -24,7 +24,7 @@ from __future__ import annotations
 import functools
 from typing import Any, NamedTuple
 
-from biplan._jax import jax, jnp
+from biplan._jax import jax, jnp, kernel_options
 from biplan.assembly import Load, TubeLayout
 from biplan.solvers.newton import newton_machine
 
@@ -135,4 +135,6 @@ def newton_pool(
 @functools.lru_cache(maxsize=16)
 def pool_kernel(layout: TubeLayout, lanes: int) -> Any:
     """The jitted :func:`newton_pool` of a layout and lane count (built once)."""
-    return jax.jit(functools.partial(newton_pool, layout, lanes=lanes))
+    return jax.jit(
+        functools.partial(newton_pool, layout, lanes=lanes), compiler_options=kernel_options()
+    )
