@@ -17,13 +17,15 @@ here (the kernels are many small matrices, parallelised by batching); set
 hangs or crashes on some batched kernels on Linux x86-64 (jax-ml/jax#39257); the hang seen here
 with the multi-threaded pool already off matches it.
 
-``BIPLAN_FAST_COMPILE=on`` compiles the large batched kernels (dynamics chunk, path kernel,
-Newton pool, batched relaxation, observation, band relaxation, design-map lanes) with LLVM's
-cheap pipeline (:data:`CHEAP_PIPELINE`, passed per kernel by :func:`kernel_options`): they
-compile 25–40 % faster and run up to ~2× slower, which pays for short runs dominated by
-compilation (the test suite sets it; docs/performance.md, "Suite time"). The scalar Newton loop
-keeps XLA's default pipeline either way: it runs ~5× slower without it, and a displacement
-sweep calls it hundreds of times.
+``BIPLAN_FAST_COMPILE=on`` compiles the large batched kernels that compile long and run little
+(dynamics chunk, path kernel and corrector, Newton pool, batched relaxation and observation,
+band relaxation, design-map lanes) with LLVM's cheap pipeline (:data:`CHEAP_PIPELINE`, passed
+per kernel by :func:`kernel_options`): they compile 25–40 % faster and run up to ~2× slower,
+which pays for short runs dominated by compilation (the test suite sets it;
+docs/performance.md, "Suite time"). The scalar Newton loop keeps XLA's default pipeline either
+way: a displacement sweep calls it hundreds of times, and it runs ~5× slower without it. (JAX
+accepts compiler options only on a top-level ``jit``, so the model's per-point kernels, which
+the solvers' kernels call inside their own, keep the default too.)
 """
 
 from __future__ import annotations
@@ -95,8 +97,9 @@ CHEAP_PIPELINE: dict[str, int | bool] = {
 
 
 def kernel_options() -> dict[str, int | bool] | None:
-    """``compiler_options`` for ``jax.jit`` of a large batched kernel: :data:`CHEAP_PIPELINE`
-    when ``BIPLAN_FAST_COMPILE`` is on (read at each call), else None (XLA's default).
+    """``compiler_options`` for ``jax.jit`` of a kernel that compiles long and runs little:
+    :data:`CHEAP_PIPELINE` when ``BIPLAN_FAST_COMPILE`` is on (read when the kernel is built),
+    else None (XLA's default).
 
     A pipeline option the user set in ``XLA_FLAGS`` wins (it is left out here).
     """
