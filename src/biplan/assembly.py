@@ -118,7 +118,13 @@ def sfb(w: Array, lam: Array, eps: Array) -> Array:
 
 
 # --- pure functions of (layout, params, q) -------------------------------------------------
+@functools.partial(jax.jit, static_argnums=0)
 def _kin(layout: TubeLayout, p: ModelParams, q: Array) -> chain.Kinematics:
+    """The chain kinematics (MODEL §4–7), a nested ``jit``: a kernel calls it many times
+    (energy, guides, gaps, load point, each under grad/Hessian/jacfwd/vmap), and JAX traces a
+    nested ``jit`` once per argument shape and reuses its jaxpr, where a plain function is
+    traced again at every call (the batched relaxation kernel traces in 5 s instead of
+    13–17 s; XLA inlines the call, so the compiled kernels do the same arithmetic)."""
     return chain.kinematics(layout, p.geometry, q)
 
 
