@@ -46,6 +46,35 @@ def test_help() -> None:
         assert option in result.output
 
 
+def _commands(command: object, path: list[str]) -> list[tuple[list[str], object]]:
+    subcommands = getattr(command, "commands", None)
+    if subcommands is None:
+        return [(path, command)]
+    return [c for name, sub in subcommands.items() for c in _commands(sub, [*path, name])]
+
+
+def test_every_option_help_is_shown_verbatim() -> None:
+    """Rich markup must not eat units: ``[s]`` is Rich's strike-through tag, so an unescaped
+    "Time step [s]." would be shown as "Time step ."."""
+    import re
+
+    import typer
+
+    def squash(text: str) -> str:
+        return re.sub(r"[\s│╭╮╰╯─]", "", text)
+
+    commands = _commands(typer.main.get_command(app), [])
+    assert len(commands) >= 10
+    for path, command in commands:
+        result = runner.invoke(app, [*path, "--help"], env={"COLUMNS": "250"})
+        assert result.exit_code == 0, path
+        shown = squash(result.output)
+        for param in command.params:  # type: ignore[attr-defined]
+            text = getattr(param, "help", None)
+            if text:
+                assert squash(text.replace("\\[", "[")) in shown, (path, param.name, text)
+
+
 def test_version() -> None:
     result = runner.invoke(app, ["--version"])
     assert result.exit_code == 0

@@ -138,7 +138,7 @@ def design(
     c: Annotated[str, typer.Option("--C", help="C values: START:STOP:N or a,b,c.")],
     out: _Out = Path("design_map"),
     rate: Annotated[float, typer.Option(help="Force rate Ḟ [N/s].")] = 0.8,
-    duration: Annotated[float, typer.Option(help="Ramp duration [s].")] = 2.0,
+    duration: Annotated[float, typer.Option(help=r"Ramp duration \[s].")] = 2.0,
     steps: Annotated[int, typer.Option(help="Load steps on the ramp.")] = 16,
     after_snap: Annotated[
         str,

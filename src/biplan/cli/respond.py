@@ -66,9 +66,9 @@ def respond(
     rate: Annotated[
         float | None, typer.Option(help="Dynamic ramp rate: N/s, mm/s or kPa/s (default 0.8 N/s).")
     ] = None,
-    duration: Annotated[float, typer.Option(help="Ramp duration [s].")] = 2.0,
-    hold: Annotated[float, typer.Option(help="Hold after the ramp [s].")] = 0.0,
-    time_step: Annotated[float, typer.Option(help="Time step [s].")] = 0.01,
+    duration: Annotated[float, typer.Option(help=r"Ramp duration \[s].")] = 2.0,
+    hold: Annotated[float, typer.Option(help=r"Hold after the ramp \[s].")] = 0.0,
+    time_step: Annotated[float, typer.Option(help=r"Time step \[s].")] = 0.01,
     damping_ratio: Annotated[
         float,
         typer.Option(help="Rayleigh damping as a first-mode damping ratio ζ (0: undamped)."),
