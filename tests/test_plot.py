@@ -175,3 +175,37 @@ def test_cylinder_draws_wrapped_elements(model, solved_q) -> None:
     assert ax.get_xlim()[1] == pytest.approx(6 * r, abs=1e-6)
     assert ax.get_zlim()[1] > model.tube.initial_length
     ax.figure.canvas.draw()  # renders headless
+
+
+def test_stability_map_cells_and_band_outline() -> None:
+    """The regions are drawn on cell edges that do not cross zero (C and U/l₀ are
+    non-negative), and the band outline is the boundary of the union of the hatched band
+    cells: a 2 × 2 block in a 3 × 5 grid has a perimeter of 8 cell sides."""
+    import xarray as xr
+
+    from biplan.plot.maps import _band_outline, _edges, stability_map
+
+    u = np.array([0.01, 0.06, 0.11, 0.16, 0.21])
+    c = np.array([0.5, 1.75, 3.0])
+    regime = np.array([[1, 2, 3, 2, 2], [1, 2, 3, 2, 2], [1, 1, 2, 2, 2]], dtype=float)
+    band = np.zeros_like(regime, dtype=bool)
+    band[:2, 1:3] = True
+    ds = xr.Dataset(
+        {"regime": (("C", "displacement"), regime), "transition": (("C", "displacement"), band)},
+        coords={"C": c, "displacement": u},
+    )
+    ax = stability_map(ds)
+    assert ax.get_xlim() == pytest.approx((0.0, 0.235))
+    assert ax.get_ylim() == pytest.approx((0.0, 3.625))
+    np.testing.assert_allclose(_edges(c), [0.0, 1.125, 2.375, 3.625])
+    np.testing.assert_allclose(_edges(np.array([-1.0, 1.0])), [-2.0, 0.0, 2.0])
+    segments = _band_outline(band, _edges(u), _edges(c))
+    assert len(segments) == 8
+    # every segment lies on the boundary of the block [0.035, 0.135] × [0, 2.375]
+    for (x0, y0), (x1, y1) in segments:
+        vertical = x0 == x1 and min(abs(x0 - 0.035), abs(x0 - 0.135)) < 1e-12
+        horizontal = y0 == y1 and min(abs(y0 - 0.0), abs(y0 - 2.375)) < 1e-12
+        assert vertical != horizontal
+    lines = [coll for coll in ax.collections if isinstance(coll, LineCollection)]
+    assert len(lines) == 1 and len(lines[0].get_segments()) == 8
+    plt.close(ax.figure)

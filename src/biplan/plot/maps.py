@@ -103,6 +103,7 @@ def stability_map(ds: Any, *, ax: Axes | None = None, legend: bool = True) -> Ax
     legend : bool
         Draw the legend of the regimes.
     """
+    from matplotlib.collections import LineCollection
     from matplotlib.colors import BoundaryNorm, ListedColormap
     from matplotlib.patches import Patch, Rectangle
 
@@ -110,21 +111,23 @@ def stability_map(ds: Any, *, ax: Axes | None = None, legend: bool = True) -> Ax
     ax = _new_axes(ax, COLUMN_FIGSIZE)
     reg = ds["regime"].transpose("C", "displacement").values
     u, c = ds["displacement"].values, ds["C"].values
+    ue, ce = _edges(u), _edges(c)
     cmap = ListedColormap((NONE_COLOR, *REGIME_COLORS)).with_extremes(bad="white")
     norm = BoundaryNorm([-0.5, 0.5, 1.5, 2.5, 3.5], cmap.N)
-    ax.pcolormesh(u, c, np.ma.masked_invalid(reg), cmap=cmap, norm=norm,
-                  shading="nearest")  # fmt: skip
+    ax.pcolormesh(ue, ce, np.ma.masked_invalid(reg), cmap=cmap, norm=norm, shading="flat")
     if "transition" in ds:
-        band = ds["transition"].transpose("C", "displacement").values.astype(float)
-        ue, ce = _edges(u), _edges(c)
-        for j, i in zip(*np.nonzero(band > 0.5), strict=True):
+        band = ds["transition"].transpose("C", "displacement").values > 0.5
+        for j, i in zip(*np.nonzero(band), strict=True):
             cell = Rectangle(
                 (ue[i], ce[j]), ue[i + 1] - ue[i], ce[j + 1] - ce[j],
                 fill=False, hatch="xx", linewidth=0.0, edgecolor="0.2",
             )  # fmt: skip
             ax.add_patch(cell)
-        if band.sum() > 0 and u.size > 1 and c.size > 1:
-            ax.contour(u, c, band, levels=[0.5], colors="k", linewidths=0.8)
+        outline = _band_outline(band, ue, ce)
+        if outline:
+            ax.add_collection(LineCollection(outline, colors="k", linewidths=0.8))
+    ax.set_xlim(ue[0], ue[-1])
+    ax.set_ylim(ce[0], ce[-1])
     if legend:
         handles = [
             Patch(color=col, label=lab)
@@ -135,7 +138,11 @@ def stability_map(ds: Any, *, ax: Axes | None = None, legend: bool = True) -> Ax
         if np.any(reg == 0):
             handles.append(Patch(color=NONE_COLOR, label="none found"))
         handles.append(Patch(facecolor="none", edgecolor="k", hatch="xx", label="transition"))
-        ax.legend(handles=handles, fontsize=FONT_SIZE - 1, loc="upper right", frameon=True)
+        ax.legend(  # above the axes: the regions fill the whole frame
+            handles=handles, fontsize=FONT_SIZE - 1, loc="lower center", frameon=False,
+            bbox_to_anchor=(0.5, 1.0), ncol=min(len(handles), 4), handlelength=1.2,
+            columnspacing=0.8, borderaxespad=0.2,
+        )  # fmt: skip
     ax.set_xlabel(r"normalised displacement $U/l_0$")
     ax.set_ylabel(r"stiffness ratio $C$")
     _style(ax)
@@ -143,9 +150,34 @@ def stability_map(ds: Any, *, ax: Axes | None = None, legend: bool = True) -> Ax
 
 
 def _edges(x: np.ndarray) -> np.ndarray:
-    """Cell edges around the centres ``x``."""
+    """Cell edges around the centres ``x`` (midpoints; the outer cells as wide as their
+    neighbours). An axis of non-negative values (C, U/l₀) is not extended below zero."""
     x = np.asarray(x, dtype=float)
     if x.size == 1:
-        return np.array([x[0] - 0.5, x[0] + 0.5])
-    mid = 0.5 * (x[1:] + x[:-1])
-    return np.r_[2 * x[0] - mid[0], mid, 2 * x[-1] - mid[-1]]
+        e = np.array([x[0] - 0.5, x[0] + 0.5])
+    else:
+        mid = 0.5 * (x[1:] + x[:-1])
+        e = np.r_[2 * x[0] - mid[0], mid, 2 * x[-1] - mid[-1]]
+    if np.all(x >= 0.0):
+        e = np.maximum(e, 0.0)
+    return e
+
+
+def _band_outline(
+    band: np.ndarray, x_edges: np.ndarray, y_edges: np.ndarray
+) -> list[tuple[tuple[float, float], tuple[float, float]]]:
+    """Segments of the boundary of the union of the ``band`` cells (rows along y, columns
+    along x): every cell side that faces a non-band cell or the outside of the grid."""
+    b = np.pad(np.asarray(band, dtype=bool), 1)
+    segs: list[tuple[tuple[float, float], tuple[float, float]]] = []
+    for j, i in zip(*np.nonzero(b[1:-1, 1:-1]), strict=True):
+        x0, x1, y0, y1 = x_edges[i], x_edges[i + 1], y_edges[j], y_edges[j + 1]
+        if not b[j + 1, i]:  # left
+            segs.append(((x0, y0), (x0, y1)))
+        if not b[j + 1, i + 2]:  # right
+            segs.append(((x1, y0), (x1, y1)))
+        if not b[j, i + 1]:  # below
+            segs.append(((x0, y0), (x1, y0)))
+        if not b[j + 2, i + 1]:  # above
+            segs.append(((x0, y1), (x1, y1)))
+    return segs
