@@ -209,3 +209,29 @@ def test_stability_map_cells_and_band_outline() -> None:
     lines = [coll for coll in ax.collections if isinstance(coll, LineCollection)]
     assert len(lines) == 1 and len(lines[0].get_segments()) == 8
     plt.close(ax.figure)
+
+
+def test_design_map_stars_the_swept_design() -> None:
+    """The star marks the design the map was swept from (``base_value`` of the b and C
+    coordinates), the validated design when the map does not record it, nothing for None."""
+    import xarray as xr
+
+    from biplan.plot.maps import VALIDATED_DESIGN, design_map
+
+    b, c = np.array([0.3, 0.4, 0.5]), np.array([0.5, 1.5, 3.0])
+    u_z = 0.02 + 0.01 * b[:, None] - 0.001 * c[None, :]
+
+    def star_of(ds: xr.Dataset, **kw: object) -> tuple[float, float] | None:
+        ax = design_map(ds, "u_z", **kw)
+        stars = [ln for ln in ax.get_lines() if ln.get_marker() == "*"]
+        plt.close(ax.figure)
+        return (float(stars[0].get_xdata()[0]), float(stars[0].get_ydata()[0])) if stars else None
+
+    plain = xr.Dataset({"u_z": (("b", "C"), u_z)}, coords={"b": b, "C": c})
+    assert star_of(plain) == VALIDATED_DESIGN
+    assert star_of(plain, star=None) is None
+    based = plain.assign_coords(b=("b", b, {"base_value": 0.3}), C=("C", c, {"base_value": 1.444}))
+    assert star_of(based) == (0.3, 1.444)
+    assert star_of(based, star=(0.45, 2.0)) == (0.45, 2.0)
+    with pytest.raises(biplan.ConfigError, match="star"):
+        design_map(based, "u_z", star="validated")

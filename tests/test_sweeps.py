@@ -24,9 +24,11 @@ from biplan.analysis.stability_map import (
     transition_band,
 )
 from biplan.analysis.sweeps import (
+    QUANTITIES,
     STATUS,
     Grid,
     apply_values,
+    base_value,
     evaluate_chunk,
     parse_axis,
     sweep,
@@ -118,8 +120,26 @@ def test_apply_values_sets_b_and_c_as_the_paper(design) -> None:
 
 
 # --- the design map ---------------------------------------------------------------------------
-def test_design_map_is_labelled(design_map) -> None:
+def test_base_value_inverts_apply_values(design) -> None:
+    """base_value(apply_values(t, {name: v}), name) == v for every sweepable quantity (the
+    base design's values label the map's coordinates and place the plot's star)."""
+    for tube in (design, biplan.designs.fully_bistable()):
+        for name in QUANTITIES:
+            base = base_value(tube, name)
+            if base is None:  # a coefficient the linear helical law does not have
+                assert name.startswith("helical.") and name != "helical.k1"
+                continue
+            value = {"n_modules": base + 1, "b": 0.5, "C": 2.0}.get(name, 1.1 * base)
+            assert base_value(apply_values(tube, {name: value}), name) == pytest.approx(
+                value, rel=1e-12
+            ), name
+    assert base_value(design, "displacement") is None
+    assert (base_value(design, "b"), base_value(design, "C")) == (design.b, design.C)
+
+
+def test_design_map_is_labelled(design, design_map) -> None:
     ds = design_map
+    assert ds["b"].attrs["base_value"] == design.b and ds["C"].attrs["base_value"] == design.C
     assert ds["u_z"].dims == ("b", "C")
     assert ds["b"].values == pytest.approx(B_VALUES)
     assert ds["C"].values == pytest.approx(C_VALUES)

@@ -21,7 +21,7 @@ from biplan.geometry.development import Development
 from biplan.geometry.tube import initial_stiffness
 from biplan.laws import FoldLaw, LinearLaw, TrilinearLaw
 
-__all__ = ["QUANTITIES", "Grid", "GridAxis", "apply_values", "parse_axis"]
+__all__ = ["QUANTITIES", "Grid", "GridAxis", "apply_values", "base_value", "parse_axis"]
 
 _GEOMETRY = ("radius", "pitch", "helical_angle", "n_modules")
 _COEFFS = ("k1", "k2", "k3", "w1", "w2")
@@ -154,6 +154,31 @@ def _law_with(law: FoldLaw, coefficient: str, value: float) -> FoldLaw:
     w = list(law.transitions)
     w[int(coefficient[1]) - 1] = value
     return replace(law, transitions=(w[0], w[1]))
+
+
+def base_value(tube: Tube, name: str) -> float | None:
+    """The value of the quantity ``name`` of :data:`QUANTITIES` in ``tube`` (the inverse of
+    :func:`apply_values`; a law coefficient is read from the first law of the set), or None
+    for a load axis (``displacement``) or a coefficient the law does not have."""
+    dev = tube.development
+    if name in ("radius", "pitch", "helical_angle"):
+        return float(getattr(dev, name))
+    if name == "n_modules":
+        return float(tube.n_modules)
+    if name in ("b", "C"):
+        return float(getattr(tube, name))
+    if "." not in name:
+        return None
+    fold_set, coefficient = name.split(".", 1)
+    laws = getattr(tube, f"{fold_set}_laws", ())
+    if not laws or coefficient not in _COEFFS:
+        return None
+    law = laws[0]
+    if isinstance(law, LinearLaw):
+        return float(law.stiffness) if coefficient == "k1" else None
+    index = int(coefficient[1]) - 1
+    values = law.stiffness if coefficient.startswith("k") else law.transitions
+    return float(values[index])
 
 
 def _scaled(law: FoldLaw, factor: float) -> FoldLaw:

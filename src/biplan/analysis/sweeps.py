@@ -25,7 +25,7 @@ from typing import Any, Protocol
 import numpy as np
 
 from biplan._errors import ConfigError
-from biplan.analysis.grid import QUANTITIES, Grid, GridAxis, apply_values, parse_axis
+from biplan.analysis.grid import QUANTITIES, Grid, GridAxis, apply_values, base_value, parse_axis
 from biplan.geometry import Tube
 
 __all__ = [
@@ -37,6 +37,7 @@ __all__ = [
     "GridAxis",
     "apply_values",
     "assemble",
+    "base_value",
     "chunk_indices",
     "evaluate_chunk",
     "parse_axis",
@@ -192,7 +193,13 @@ def assemble(
             attrs["flag_values"] = list(STATUS.values())
             attrs["flag_meanings"] = " ".join(STATUS)
         data_vars[name] = ((*grid.names, *dims), arr, attrs)
-    coords = {a.name: (a.name, np.asarray(a.values), {"units": a.unit}) for a in grid.axes}
+    coords = {}
+    for a in grid.axes:
+        attrs = {"units": a.unit}
+        base = base_value(design, a.name)
+        if base is not None:  # the swept design's own value (starred on the design map)
+            attrs["base_value"] = base
+        coords[a.name] = (a.name, np.asarray(a.values), attrs)
     ds = xr.Dataset(data_vars, coords=coords)
     ds.attrs["quantity"] = evaluator.name
     ds.attrs["n_points"] = grid.size

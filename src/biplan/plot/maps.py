@@ -1,8 +1,8 @@
 """Design and stability maps (paper Fig. 3 A.1 and A.3).
 
 * :func:`design_map` — filled contours of the terminal u_z/l₀ or u_r/l₀ of the force ramp over
-  (b, C), with the validated design (b = 0.573, C = 1.444) starred and points where stability
-  was lost hatched; failed points are left blank.
+  (b, C), with the swept design starred (for the paper's design the validated one, b = 0.573,
+  C = 1.444) and points where stability was lost hatched; failed points are left blank.
 * :func:`stability_map` — regions coloured monostable / bistable / multistable over (U/l₀, C)
   (grey where no stable equilibrium was found, white where the point failed), the transition
   band hatched and outlined.
@@ -45,7 +45,7 @@ def design_map(
     variable: str = "u_z",
     *,
     ax: Axes | None = None,
-    star: tuple[float, float] | None = VALIDATED_DESIGN,
+    star: tuple[float, float] | str | None = "base",
     levels: int = 12,
     cmap: str = "viridis",
 ) -> Axes:
@@ -58,8 +58,11 @@ def design_map(
     variable : str
         ``"u_z"`` or ``"u_r"``.
     ax : Axes, optional
-    star : (float, float), optional
-        (b, C) to mark with a star; None for none.
+    star : (float, float) or "base" or None
+        (b, C) to mark with a star. ``"base"`` (default): the design the map was swept from
+        (the ``base_value`` attributes of its b and C coordinates, written by ``sweep``), which
+        for the paper's design is the validated one; :data:`VALIDATED_DESIGN` for a map that
+        does not record it. None: no star.
     levels : int
         Number of contour levels.
     cmap : str
@@ -83,9 +86,14 @@ def design_map(
         if np.nansum(lost) > 0:
             ax.contourf(b, c, np.nan_to_num(lost), levels=[0.5, 1.5], colors="none",
                         hatches=["///"])  # fmt: skip
+    if isinstance(star, str):
+        if star != "base":
+            raise ConfigError("star", star, '"base", a (b, C) pair or None')
+        base = (ds["b"].attrs.get("base_value"), ds["C"].attrs.get("base_value"))
+        star = VALIDATED_DESIGN if None in base else (float(base[0]), float(base[1]))
     if star is not None:
         ax.plot(*star, marker="*", ms=10, mfc="white", mec="k", mew=0.8, ls="none",
-                label="validated design")  # fmt: skip
+                label="base design")  # fmt: skip
     ax.set_xlabel(r"geometric ratio $b$")
     ax.set_ylabel(r"stiffness ratio $C$")
     _style(ax)
