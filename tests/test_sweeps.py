@@ -88,6 +88,9 @@ def test_bad_grid_raises_before_solving(design) -> None:
     with pytest.raises(ConfigError, match="b") as err:  # b ≤ l/H = 0.286: no β exists
         sweep(design, Grid.of(b=[0.2, 0.5], C=[1.0]), ev, chunk_size=BATCH)
     assert err.value.parameter == "b"
+    # b ≥ √(l² + H²)/H = 1.040: H2 = l tan β would exceed the circumference; named as b
+    with pytest.raises(ConfigError, match=r"b = 1\.1: must be in \(0\.2865, 1\.04\)"):
+        sweep(design, Grid.of(b=[0.5, 1.1], C=[1.0]), ev, chunk_size=BATCH)
     with pytest.raises(ConfigError, match="C"):
         sweep(design, Grid.of(b=[0.5], C=[-1.0]), ev, chunk_size=BATCH)
     with pytest.raises(ConfigError, match="grid axis"):

@@ -102,8 +102,12 @@ class Development:
     def helical_angle_for_b(b: float, radius: float, pitch: float) -> float:
         """β [degrees] giving the geometric ratio ``b`` at fixed R and l (design-map sweeps)."""
         b = check_range("b", b, low=0.0)
-        cos_beta = pitch / (b * 2 * math.pi * radius)
-        if not 0 < cos_beta < 1:
-            bmin = pitch / (2 * math.pi * radius)
-            raise ConfigError("b", b, f"> l/H = {bmin:.4g} for R = {radius}, l = {pitch}")
-        return math.degrees(math.acos(cos_beta))
+        circumference = 2 * math.pi * radius
+        bmin = pitch / circumference  # β = 0
+        bmax = math.hypot(pitch, circumference) / circumference  # H2 = l tan β = H
+        if not bmin < b < bmax:
+            raise ConfigError(
+                "b", b, f"in ({bmin:.4g}, {bmax:.4g}): > l/H (β = 0) and < √(l² + H²)/H "
+                f"(H2 = l tan β reaches H) for R = {radius}, l = {pitch}",
+            )  # fmt: skip
+        return math.degrees(math.acos(pitch / (b * circumference)))
