@@ -20,6 +20,7 @@ from biplan.analysis.design_map import ForceRamp, ResponseEvaluator, response_po
 from biplan.analysis.stability_map import (
     StabilityEvaluator,
     StabilitySearch,
+    points_per_kernel,
     stability_chunk_size,
     transition_band,
 )
@@ -34,6 +35,7 @@ from biplan.analysis.sweeps import (
     sweep,
 )
 from biplan.io.sweepstore import ChunkStore, load_map, save_map
+from biplan.solvers.pool import pool_kernel
 
 BATCH = 4
 B_VALUES = (0.45, 0.51, 0.57)
@@ -464,6 +466,13 @@ def test_stability_map_mono_at_small_displacement_multi_at_large(design) -> None
     assert ((lam > 0) == (ds["stable"].values[0, 1, :kept] == 1)).all()
     # the prescribed displacement holds at every equilibrium (u_z/l0 = U/l0 at the load point)
     assert np.nanmax(np.abs(ds["u_z"].values[:, 1] - 0.1)) < 0.02
+    # a chunk of another size in the same bucket (≤ 8 points) reuses the compiled pool
+    kernel = pool_kernel(design.layout, StabilitySearch().solve_batch)
+    compiled = kernel._cache_size()
+    assert compiled >= 1
+    whole = sweep(design, grid, StabilityEvaluator(), chunk_size=4)
+    assert kernel._cache_size() == compiled
+    np.testing.assert_array_equal(whole["n_stable"].values, ds["n_stable"].values)
 
 
 def test_march_finds_the_equilibria_of_seeding_every_point(design) -> None:
@@ -494,3 +503,5 @@ def test_stability_search_settings_are_checked() -> None:
     assert ev._seeded(list(np.linspace(0.01, 0.3, 9)), row[:9]) == row[:9]  # coarse: all
     assert stability_chunk_size(40) == 160 and stability_chunk_size(200) == 200
     assert stability_chunk_size(7) % 7 == 0 and stability_chunk_size(7) >= 128
+    sizes = [points_per_kernel(n) for n in (1, 2, 8, 9, 20, 128, 132)]
+    assert sizes == [8, 8, 8, 16, 32, 128, 256]

@@ -31,12 +31,13 @@ default C at b = 0.58) the distinct equilibria are searched for and classified:
 
 The fixed seeds of a chunk, (points × seeds), run as one task queue on a lane-refilling Newton
 pool (:func:`biplan.solvers.pool.newton_pool`, ``solve_batch`` lanes, one compiled kernel per
-layout, lane count and chunk size): a lane whose seed has converged or failed takes the next
-seed, so a slow seed no longer holds up a whole batch. Each march step solves the
-continuation seeds of all rows of the chunk on a pool of ``march_lanes`` lanes. Only one
-solution per distinct equilibrium and point is observed (Hessian, λ_min), the copies share its
-values. Continuation stays inside a chunk, so rows should not straddle chunks (the CLI sizes
-the chunks to whole rows, at least 128 points: :func:`stability_chunk_size`).
+layout, lane count and size bucket of the chunk, :func:`points_per_kernel`): a lane whose seed
+has converged or failed takes the next seed, so a slow seed no longer holds up a whole batch.
+Each march step solves the continuation seeds of all rows of the chunk on a pool of
+``march_lanes`` lanes. Only one solution per distinct equilibrium and point is observed
+(Hessian, λ_min), the copies share its values. Continuation stays inside a chunk, so rows
+should not straddle chunks (the CLI sizes the chunks to whole rows, at least 128 points:
+:func:`stability_chunk_size`).
 """
 
 from __future__ import annotations
@@ -57,7 +58,13 @@ from biplan.solvers.newton import Newton, Status
 from biplan.solvers.observe import STABILITY_TOL, observe
 from biplan.solvers.pool import pool_kernel
 
-__all__ = ["StabilityEvaluator", "StabilitySearch", "stability_chunk_size", "transition_band"]
+__all__ = [
+    "StabilityEvaluator",
+    "StabilitySearch",
+    "points_per_kernel",
+    "stability_chunk_size",
+    "transition_band",
+]
 
 Array = Any
 
@@ -155,6 +162,15 @@ OBSERVE_LANES = 8
 @functools.lru_cache(maxsize=16)
 def _observe_kernel(layout: TubeLayout) -> Any:
     return jax.jit(jax.vmap(functools.partial(_observe, layout)), compiler_options=kernel_options())
+
+
+def points_per_kernel(n_points: int) -> int:
+    """Points (rows of the stacked parameters) of the compiled search kernels for a chunk of
+    ``n_points``: rounded up to a power of two, at least 8. The pool's shapes are set by the
+    padded points and tasks (padding tasks are never solved), so chunks and grids of other
+    sizes in the same bucket share one compiled pool instead of compiling their own
+    (25–45 s each on two cores)."""
+    return max(8, 1 << (max(int(n_points), 1) - 1).bit_length())
 
 
 def seeds(model: Model, u: float) -> np.ndarray:
@@ -328,9 +344,10 @@ class StabilityEvaluator:
         """Seeds, then continuation, for the points of one layout (see module docstring)."""
         s = self.search
         models = [Model(t) for t in tubes]
-        params = stack_params(models, max(batch, len(models)))
+        size = points_per_kernel(max(batch, len(models)))
+        params = stack_params(models, size)
         n_seeds = len(seeds(models[0], 0.0))
-        capacity = max(batch, len(models)) * max(n_seeds, 2 * s.max_equilibria)
+        capacity = size * max(n_seeds, 2 * s.max_equilibria)
         u = [
             float(ld["displacement"]) * t.initial_length for ld, t in zip(loads, tubes, strict=True)
         ]
