@@ -102,9 +102,12 @@ def test_bad_map_option_exits_with_the_setting_named(
 
 
 def test_stability_map_cli(tmp_path: Path) -> None:
+    """``--chunk-size 2``: the search kernels of an 8-point bucket, which the stability tests
+    of test_sweeps.py and the reproduce run also compile (the persistent cache shares them;
+    the default, whole rows of at least 128 points, is checked by stability_chunk_size)."""
     out = tmp_path / "stab"
     args = ["map", "stability", str(CONFIG), "--displacement", "0.02,0.2", "--C", "1.0"]
-    assert _run([*args, "--b", "0.573", "--out", str(out), "--quiet"]) == 0
+    assert _run([*args, "--b", "0.573", "--out", str(out), "--chunk-size", "2", "--quiet"]) == 0
     ds = load_map(out)
     assert ds["regime"].dims == ("C", "displacement")
     assert ds["energy"].dims == ("C", "displacement", "equilibrium")
