@@ -45,3 +45,19 @@ def test_respond_dynamic_pressure(tmp_path: Path) -> None:
 def test_respond_rejects_a_missing_config(tmp_path: Path) -> None:
     result = runner.invoke(app, ["respond", str(tmp_path / "nope.toml")])
     assert result.exit_code != 0
+
+
+def test_bifurcation_note_names_the_first_bifurcation_only_when_there_is_one() -> None:
+    from types import SimpleNamespace
+
+    from biplan.cli.respond import bifurcation_note
+    from biplan.solvers.results import Event
+
+    limit = Event("limit point", 3, 1.5, 2.1, 1.5)
+    bif = Event("bifurcation", 8, 1.54, 2.126, 1.54)
+    assert bifurcation_note(SimpleNamespace(events=(limit,))) is None
+    assert bifurcation_note(SimpleNamespace()) is None  # a trajectory has no events
+    note = bifurcation_note(SimpleNamespace(events=(limit, bif, bif)))
+    assert note is not None
+    assert "2 bifurcation(s)" in note and "z_p = 1.54 mm, F = 2.13 N" in note
+    assert "displacement_sweep" in note

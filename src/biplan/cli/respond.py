@@ -31,7 +31,7 @@ from rich.console import Console
 if TYPE_CHECKING:
     from biplan.solvers import Trajectory
 
-__all__ = ["Method", "respond"]
+__all__ = ["Method", "bifurcation_note", "respond"]
 
 #: Default stop values per control (quasi-static): F [N], U [mm], p [kPa].
 DEFAULT_STOP = {"force": 2.5, "displacement": 9.0, "pressure": 200.0}
@@ -106,10 +106,31 @@ def respond(
     _figure(result, out / "response.png")
     summary = summarize(result)
     level = "green" if result.completed else "yellow"
-    Console(quiet=quiet, highlight=False).print(
+    report = Console(quiet=quiet, highlight=False)
+    report.print(
         f"[{level}]{result.message}[/]\n"
         + "\n".join(summary.lines())
         + f"\nwrote {out}/response.{{nc,csv,png}}"
+    )
+    note = bifurcation_note(result)
+    if note:
+        report.print(f"[yellow]note:[/] {note}")
+
+
+def bifurcation_note(result: object) -> str | None:
+    """A hint when a quasi-static path crossed bifurcations and stayed on its branch (for
+    identical folds in series: the symmetric branch), else None."""
+    events = [e for e in getattr(result, "events", ()) if e.kind == "bifurcation"]
+    if not events:
+        return None
+    first = events[0]
+    return (
+        f"the path crossed {len(events)} bifurcation(s), the first at z_p = "
+        f"{first.displacement:.3g} mm, F = {first.force:.3g} N, and stayed on its branch. With "
+        "identical folds in series that is the symmetric branch, on which they transform "
+        "together; a displacement-controlled test leaves it fold by fold. For that "
+        "stable-branch response (snaps included) use "
+        "biplan.analysis.quasistatic.displacement_sweep (docs/solvers.md)."
     )
 
 
