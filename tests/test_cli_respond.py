@@ -3,8 +3,10 @@
 from __future__ import annotations
 
 import csv
+import re
 from pathlib import Path
 
+import pytest
 from typer.testing import CliRunner
 
 from biplan.cli.main import app
@@ -60,4 +62,45 @@ def test_bifurcation_note_names_the_first_bifurcation_only_when_there_is_one() -
     note = bifurcation_note(SimpleNamespace(events=(limit, bif, bif)))
     assert note is not None
     assert "2 bifurcation(s)" in note and "z_p = 1.54 mm, F = 2.13 N" in note
-    assert "displacement_sweep" in note
+    assert "--method stable" in note
+
+
+def test_respond_stable_branch_sweep(tmp_path: Path) -> None:
+    """``--method stable``: the testing machine's view — stable equilibria only, the first
+    circular fold snapping open near U = 1.6 mm (force drop), labelled files written."""
+    import numpy as np
+    import xarray as xr
+
+    import biplan
+
+    out = tmp_path / "stable"
+    args = ["respond", str(CONFIG), "--control", "displacement", "--method", "stable"]
+    result = runner.invoke(app, [*args, "--stop", "2.5", "--step", "0.25", "--out", str(out)])
+    assert result.exit_code == 0, result.output
+    assert "stable-branch sweep to U = 2.5 mm: 10 steps" in result.output
+    header = _header(out / "response.csv")
+    assert set(header) >= REQUIRED | {"displacement", "switched"}
+    with xr.open_dataset(out / "response.nc", engine="h5netcdf") as ds:
+        ds = ds.load()
+    assert ds.attrs["kind"] == "stable-branch sweep" and "[laws.circular]" in ds.attrs["config"]
+    assert ds["q"].dims == ("step", "coordinate") and ds.sizes["step"] == 10
+    assert (ds["stable"].values == 1).all() and (ds["status"].values == 0).all()
+    force = ds["force"].values
+    snap = int(np.argmax(ds["switched"].values))
+    assert ds["switched"].values.any() and 1.25 <= ds["displacement"].values[snap] <= 2.0
+    assert force[snap] < 0.5 * force[snap - 1]  # the fold snapped open: the force dropped
+    # the summary's phase-1 peak is the last state before the first snap
+    peak = re.search(r"phase-1 peak force ([\d.]+) N at z_p = ([\d.]+) mm", result.output)
+    assert peak is not None
+    assert float(peak[1]) == pytest.approx(force[snap - 1], abs=1e-4)
+    assert float(peak[2]) == pytest.approx(ds["displacement"].values[snap - 1], abs=1e-3)
+    # biplan plot draws it (snaps dotted)
+    drawn = runner.invoke(app, ["plot", str(out / "response.nc"), "--kind", "response",
+                                "--out", str(out / "again.png")])  # fmt: skip
+    assert drawn.exit_code == 0, drawn.output
+    assert (out / "again.png").read_bytes()[:4] == b"\x89PNG"
+    # refused before solving when it cannot apply
+    bad = runner.invoke(app, ["respond", str(CONFIG), "--method", "stable", "--out", str(out)])
+    assert isinstance(bad.exception, biplan.ConfigError) and "--control displacement" in str(
+        bad.exception
+    )

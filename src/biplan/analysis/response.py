@@ -83,6 +83,9 @@ def summarize(
     """Summarize a Path, Trajectory or QuasiStaticPath (anything with the arrays ``force``,
     ``displacement``, ``u_z``, ``u_r``, ``theta``, ``stable``).
 
+    Phase 1 runs up to the first unstable state or, on a stable-branch sweep (a
+    ``switched`` array), up to its first snap; its peak is the largest force before that.
+
     Parameters
     ----------
     result : Path, Trajectory or QuasiStaticPath
@@ -99,7 +102,11 @@ def summarize(
         initial_length = float(result.model.tube.initial_length)
     nan = float("nan")
     unstable = np.flatnonzero(ok & ~stable)
-    first_bad = int(unstable[0]) if unstable.size else len(f)
+    # phase 1 ends at the first unstable state or, on a stable-branch sweep (``switched``), at
+    # the first snap to another branch
+    switched = np.asarray(getattr(result, "switched", np.zeros(f.size, bool)), dtype=bool)
+    ends = np.flatnonzero((ok & ~stable) | switched)
+    first_bad = int(ends[0]) if ends.size else len(f)
     phase1 = np.flatnonzero(ok[:first_bad])
     if phase1.size:
         k = int(phase1[np.argmax(f[phase1])])

@@ -1,10 +1,12 @@
 """``biplan plot RESULT --kind KIND --out FILE``: a picture of any result file.
 
 RESULT is a netCDF file written by the other commands: a path (``kind = "path"``, dim
-``step``), a trajectory (``"trajectory"``, dim ``time``) or a state catalogue (``"states"``,
-dim ``state``); its ``config`` attribute rebuilds the model. Kinds:
+``step``), a trajectory (``"trajectory"``, dim ``time``), a stable-branch sweep (``"stable-branch
+sweep"``, dim ``step``: ``response``, ``development`` and ``tube`` only) or a state catalogue
+(``"states"``, dim ``state``); its ``config`` attribute rebuilds the model. Kinds:
 
-* ``response`` — force against load-point displacement (unstable stretches dashed);
+* ``response`` — force against load-point displacement (unstable stretches dashed, snaps of a
+  stable-branch sweep dotted);
 * ``development`` — the planar development of one state (``--step``, default the last);
 * ``tube`` — the 3D tube of one state; with ``--out`` ending in ``.vtu`` the state, and with
   ``.pvd`` the whole series (every ``--stride``-th state), are exported for ParaView instead;
@@ -40,6 +42,8 @@ __all__ = ["Kind", "plot"]
 #: Resolution of static figures [dots per inch].
 DPI = 300
 SERIES_KINDS = ("path", "trajectory")
+#: ``kind`` of a stable-branch displacement sweep (``biplan respond --method stable``).
+SWEEP_KIND = "stable-branch sweep"
 
 
 class Kind(enum.StrEnum):
@@ -110,19 +114,21 @@ def _figure(dataset: Any, kind: Kind, step: int, color_by: str, guides: bool, vi
         if kind is Kind.development:
             return _root(plot.development(model, q, color_by=color_by, guides=guides))
         return _root(plot.cylinder(model, q, color_by=color_by, colorbar=True, **view))
-    _require(dataset, kind, SERIES_KINDS)
     if kind is Kind.response:
+        _require(dataset, kind, (*SERIES_KINDS, SWEEP_KIND))
         n = dataset["force"].size
         stable = dataset["stable"].values if "stable" in dataset else np.ones(n)
+        switched = dataset["switched"].values if "switched" in dataset else np.zeros(n)
         curve = SimpleNamespace(
             displacement=dataset["displacement"].values,
             force=dataset["force"].values,
             stable=np.asarray(stable, dtype=bool),
-            switched=np.zeros(n, dtype=bool),
+            switched=np.asarray(switched, dtype=bool),
         )
         if "limit_point" in dataset:
             curve.limit_point = np.asarray(dataset["limit_point"].values, dtype=bool)
         return _root(plot.force_displacement(cast("Any", curve)))
+    _require(dataset, kind, SERIES_KINDS)
     draw = {
         Kind.energy: diagnostics.energy_by_fold_set,
         Kind.eigenvalue: diagnostics.min_eigenvalue,

@@ -2,9 +2,11 @@
 
 Quasi-static (default): follows the equilibrium path with pseudo-arclength continuation
 (``--method arclength``) or load stepping (``--method stepping``) from the relaxed reference to
-``--stop``. Dynamic (``--dynamic``): integrates the equations of motion under the ramp
-Λ(t) = ``--rate`` · t for 0 ≤ t ≤ ``--duration`` (default the paper's 0.8 N/s for 2 s), then
-holds for ``--hold`` seconds.
+``--stop``; ``--control displacement --method stable`` runs the stable-branch sweep of a
+testing machine instead (snaps to stable equilibria, ``--step`` mm per step). Dynamic
+(``--dynamic``): integrates the equations of motion under the ramp Λ(t) = ``--rate`` · t for
+0 ≤ t ≤ ``--duration`` (default the paper's 0.8 N/s for 2 s), then holds for ``--hold``
+seconds.
 
 Writes into DIR:
 
@@ -48,6 +50,7 @@ class ControlName(enum.StrEnum):
 class Method(enum.StrEnum):
     arclength = "arclength"
     stepping = "stepping"
+    stable = "stable"
 
 
 def respond(
@@ -59,8 +62,17 @@ def respond(
         float | None,
         typer.Option(help="Quasi-static end value: N, mm or kPa (default 2.5 N, 9 mm, 200 kPa)."),
     ] = None,
-    method: Annotated[Method, typer.Option(help="Quasi-static path method.")] = Method.arclength,
-    step: Annotated[float, typer.Option(help="Initial path step (arclength or Λ units).")] = 0.05,
+    method: Annotated[
+        Method,
+        typer.Option(
+            help="Quasi-static path method: arclength (the equilibrium path, unstable stretches "
+            "included), stepping (load steps) or stable (displacement control: the stable-branch "
+            "sweep of a testing machine, snaps included)."
+        ),
+    ] = Method.arclength,
+    step: Annotated[
+        float, typer.Option(help="Initial path step (arclength or Λ units; stable: mm per step).")
+    ] = 0.05,
     max_step: Annotated[float, typer.Option(help="Largest path step.")] = 0.1,
     max_steps: Annotated[int, typer.Option(help="Most path steps.")] = 2000,
     rate: Annotated[
@@ -81,11 +93,20 @@ def respond(
     from biplan.analysis.response import summarize
     from biplan.io.results import dataset, save_csv, save_netcdf
 
+    if method is Method.stable and (dynamic or control is not ControlName.displacement):
+        raise biplan.ConfigError(
+            "--method", "stable", "used with --control displacement, quasi-static (no --dynamic)"
+        )
     console = Console(quiet=quiet or not sys.stdout.isatty(), highlight=False)
     tube = biplan.load_config(config)
     model = biplan.Model(tube)
     kind = control.value
     scale = 1e-3 if kind == "pressure" else 1.0  # kPa → MPa
+    if method is Method.stable:
+        with console.status(f"[bold]{tube.name}[/]: stable-branch sweep…"):
+            _stable_sweep(model, DEFAULT_STOP[kind] if stop is None else stop, step, max_steps,
+                          out, quiet)  # fmt: skip
+        return
     result: biplan.Path | biplan.Trajectory
     with console.status(f"[bold]{tube.name}[/]: {'integrating' if dynamic else 'tracing'}…"):
         if dynamic:
@@ -117,6 +138,36 @@ def respond(
         report.print(f"[yellow]note:[/] {note}")
 
 
+def _stable_sweep(
+    model: object, stop: float, step: float, max_steps: int, out: Path, quiet: bool
+) -> None:
+    """``--method stable``: :func:`~biplan.analysis.quasistatic.displacement_sweep` in
+    ⌈stop/step⌉ equal steps (at most ``max_steps``) from the relaxed reference."""
+    import numpy as np
+
+    import biplan
+    from biplan.analysis.quasistatic import displacement_sweep
+    from biplan.analysis.response import summarize
+    from biplan.io.results import save_netcdf, save_sweep_csv, sweep_dataset
+
+    n = int(min(max(np.ceil(abs(stop) / step), 1), max_steps))
+    ref = biplan.relaxed_reference(model)  # type: ignore[arg-type]
+    path = displacement_sweep(model, np.linspace(stop / n, stop, n), start=ref)  # type: ignore[arg-type]
+    out.mkdir(parents=True, exist_ok=True)
+    save_netcdf(sweep_dataset(path, model), out / "response.nc")  # type: ignore[arg-type]
+    save_sweep_csv(path, out / "response.csv")
+    _figure(path, out / "response.png")
+    failed = sum(not s.converged for s in path.solutions)
+    level = "green" if not failed else "yellow"
+    l0 = model.tube.initial_length  # type: ignore[attr-defined]
+    Console(quiet=quiet, highlight=False).print(
+        f"[{level}]stable-branch sweep to U = {stop:g} mm: {n} steps, "
+        f"{int(path.switched.sum())} snaps to a stable branch, {failed} failed[/]\n"
+        + "\n".join(summarize(path, initial_length=l0).lines())
+        + f"\nwrote {out}/response.{{nc,csv,png}}"
+    )
+
+
 def bifurcation_note(result: object) -> str | None:
     """A hint when a quasi-static path crossed bifurcations and stayed on its branch (for
     identical folds in series: the symmetric branch), else None."""
@@ -129,8 +180,8 @@ def bifurcation_note(result: object) -> str | None:
         f"{first.displacement:.3g} mm, F = {first.force:.3g} N, and stayed on its branch. With "
         "identical folds in series that is the symmetric branch, on which they transform "
         "together; a displacement-controlled test leaves it fold by fold. For that "
-        "stable-branch response (snaps included) use "
-        "biplan.analysis.quasistatic.displacement_sweep (docs/solvers.md)."
+        "stable-branch response (snaps included) use --control displacement --method stable "
+        "(docs/solvers.md)."
     )
 
 

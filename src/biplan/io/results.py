@@ -5,7 +5,9 @@
   the tube's TOML configuration (``config``) so that the file re-opens as a model;
 * :func:`save` — write ``.nc`` (netCDF4 via h5netcdf) or ``.csv`` (one row per step/time, the
   scalar observables; units in the header comment line);
-* :func:`load_result` and :func:`model_of` — read a netCDF result and rebuild its model.
+* :func:`load_result` and :func:`model_of` — read a netCDF result and rebuild its model;
+* :func:`sweep_dataset`, :func:`save_sweep_csv` — the same for a stable-branch displacement
+  sweep (:func:`~biplan.analysis.quasistatic.displacement_sweep`).
 """
 
 from __future__ import annotations
@@ -17,11 +19,23 @@ from typing import Any
 import numpy as np
 
 from biplan._errors import ConfigError
+from biplan.analysis.quasistatic import QuasiStaticPath
 from biplan.assembly import Model
 from biplan.io.config import dump_config, load_config_text
 from biplan.solvers.results import Path, Trajectory
 
-__all__ = ["CSV_COLUMNS", "dataset", "load_result", "model_of", "save", "save_csv", "save_netcdf"]
+__all__ = [
+    "CSV_COLUMNS",
+    "SWEEP_COLUMNS",
+    "dataset",
+    "load_result",
+    "model_of",
+    "save",
+    "save_csv",
+    "save_netcdf",
+    "save_sweep_csv",
+    "sweep_dataset",
+]
 
 #: Scalar columns of the CSV form, in order (``t`` first for trajectories).
 CSV_COLUMNS = (
@@ -38,6 +52,18 @@ CSV_COLUMNS = (
     "stable",
 )
 _TRAJECTORY_EXTRA = ("kinetic_energy", "external_work", "dissipated_energy", "total_energy")
+#: Columns of a stable-branch sweep: name → (unit, description).
+SWEEP_COLUMNS = {
+    "displacement": ("mm", "prescribed load-point displacement U"),
+    "force": ("N", "end reaction force F"),
+    "u_z": ("mm", "axial endpoint displacement"),
+    "u_r": ("mm", "radial endpoint displacement"),
+    "theta": ("rad", "endpoint slope"),
+    "energy": ("N*mm", "strain energy"),
+    "min_eigenvalue": ("N*mm", "smallest reduced-Hessian eigenvalue (inf: contact-locked)"),
+    "stable": ("1", "1 stable"),
+    "switched": ("1", "1 where the sweep left an unstable equilibrium for a stable one"),
+}
 
 
 def dataset(result: Path | Trajectory) -> Any:
@@ -124,3 +150,48 @@ def model_of(ds: Any) -> Model:
     if not text:
         raise ConfigError("dataset.attrs['config']", None, "the tube configuration of the result")
     return Model(load_config_text(text, source="<result file>"))
+
+
+def sweep_dataset(path: QuasiStaticPath, model: Model) -> Any:
+    """A stable-branch displacement sweep as an ``xarray.Dataset`` over ``step`` (the scalar
+    columns of :data:`SWEEP_COLUMNS`, ``status`` (Status value) and the coordinates ``q``;
+    NaN at failed steps), with ``attrs["config"]`` = the tube's TOML text."""
+    import xarray as xr
+
+    nq = model.n_coordinates
+    q = np.stack([np.asarray(s.q, dtype=float) if s.converged else np.full(nq, np.nan)
+                  for s in path.solutions])  # fmt: skip
+    data: dict[str, Any] = {}
+    for name, (unit, desc) in SWEEP_COLUMNS.items():
+        v = np.asarray(getattr(path, name))
+        v = v.astype(np.int8) if v.dtype == bool else v.astype(float)
+        data[name] = ("step", v, {"units": unit, "long_name": desc})
+    data["status"] = ("step", np.asarray([s.value for s in path.status]), {"units": "1"})
+    data["q"] = (("step", "coordinate"), q, {"units": "mm|rad"})
+    attrs = {
+        "kind": "stable-branch sweep",
+        "control": "displacement",
+        "initial_length": float(model.tube.initial_length),
+        "config": dump_config(model.tube),
+    }
+    return xr.Dataset(data, coords={"step": np.arange(path.n_steps)}, attrs=attrs)
+
+
+def save_sweep_csv(path: QuasiStaticPath, file: str | FilePath) -> FilePath:
+    """Write a stable-branch sweep, one row per step (``step`` and :data:`SWEEP_COLUMNS`); a
+    first comment line gives the units."""
+    cols = ["step", *SWEEP_COLUMNS]
+    out = FilePath(file)
+    out.parent.mkdir(parents=True, exist_ok=True)
+    with out.open("w", newline="") as fh:
+        units = {c: SWEEP_COLUMNS[c][0] for c in SWEEP_COLUMNS}
+        fh.write("# units: " + ", ".join(f"{c} [{units.get(c, '-')}]" for c in cols) + "\n")
+        w = csv.writer(fh)
+        w.writerow(cols)
+        for k in range(path.n_steps):
+            row = [str(k)]
+            for c in SWEEP_COLUMNS:
+                v = getattr(path, c)[k]
+                row.append(str(int(v)) if isinstance(v, bool | np.bool_) else repr(float(v)))
+            w.writerow(row)
+    return out
