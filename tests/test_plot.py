@@ -218,7 +218,7 @@ def test_design_map_stars_the_swept_design() -> None:
 
     from biplan.plot.maps import VALIDATED_DESIGN, design_map
 
-    b, c = np.array([0.3, 0.4, 0.5]), np.array([0.5, 1.5, 3.0])
+    b, c = np.array([0.3, 0.45, 0.6]), np.array([0.5, 1.5, 3.0])
     u_z = 0.02 + 0.01 * b[:, None] - 0.001 * c[None, :]
 
     def star_of(ds: xr.Dataset, **kw: object) -> tuple[float, float] | None:
@@ -233,5 +233,6 @@ def test_design_map_stars_the_swept_design() -> None:
     based = plain.assign_coords(b=("b", b, {"base_value": 0.3}), C=("C", c, {"base_value": 1.444}))
     assert star_of(based) == (0.3, 1.444)
     assert star_of(based, star=(0.45, 2.0)) == (0.45, 2.0)
+    assert star_of(based, star=(0.7, 1.444)) is None  # off the map (b ≤ 0.6): not drawn
     with pytest.raises(biplan.ConfigError, match="star"):
         design_map(based, "u_z", star="validated")

@@ -62,7 +62,7 @@ def design_map(
         (b, C) to mark with a star. ``"base"`` (default): the design the map was swept from
         (the ``base_value`` attributes of its b and C coordinates, written by ``sweep``), which
         for the paper's design is the validated one; :data:`VALIDATED_DESIGN` for a map that
-        does not record it. None: no star.
+        does not record it. None: no star. A star outside the map's (b, C) range is not drawn.
     levels : int
         Number of contour levels.
     cmap : str
@@ -91,7 +91,10 @@ def design_map(
             raise ConfigError("star", star, '"base", a (b, C) pair or None')
         base = (ds["b"].attrs.get("base_value"), ds["C"].attrs.get("base_value"))
         star = VALIDATED_DESIGN if None in base else (float(base[0]), float(base[1]))
-    if star is not None:
+    inside = star is not None and (
+        b.min() <= star[0] <= b.max() and c.min() <= star[1] <= c.max()
+    )  # a star off the map would only stretch the axes
+    if star is not None and inside:
         ax.plot(*star, marker="*", ms=10, mfc="white", mec="k", mew=0.8, ls="none",
                 label="base design")  # fmt: skip
     ax.set_xlabel(r"geometric ratio $b$")
