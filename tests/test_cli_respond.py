@@ -104,3 +104,5 @@ def test_respond_stable_branch_sweep(tmp_path: Path) -> None:
     assert isinstance(bad.exception, biplan.ConfigError) and "--control displacement" in str(
         bad.exception
     )
+    bad = runner.invoke(app, [*args, "--step", "0", "--out", str(out)])
+    assert isinstance(bad.exception, biplan.ConfigError) and "--step" in str(bad.exception)

@@ -97,6 +97,8 @@ def respond(
         raise biplan.ConfigError(
             "--method", "stable", "used with --control displacement, quasi-static (no --dynamic)"
         )
+    if method is Method.stable and not step > 0:
+        raise biplan.ConfigError("--step", step, "> 0 mm (the displacement per step)")
     console = Console(quiet=quiet or not sys.stdout.isatty(), highlight=False)
     tube = biplan.load_config(config)
     model = biplan.Model(tube)
