@@ -23,6 +23,7 @@ COLUMNS = [
     "min_eigenvalue",
     "stable",
     "status",
+    "switched",
 ]
 PNG_SIGNATURE = b"\x89PNG\r\n\x1a\n"
 

@@ -9,7 +9,8 @@ writes into ``--out``:
 * ``development.png`` — deformed developments of the snapshots, folds coloured by w [mm];
 * ``cylinder.png`` — the snapshots wrapped onto the cylinder, side by side;
 * ``demo.csv`` — one row per step: displacement [mm], force [N], u_z [mm], u_r [mm],
-  theta [rad], energy [N·mm], min_eigenvalue, stable (1/0), status.
+  theta [rad], energy [N·mm], min_eigenvalue, stable (1/0), status, switched (1/0)
+  (:func:`biplan.io.results.save_sweep_csv`).
 
 Snapshots: (a) the phase-1 state (before the first snap or unstable step) whose force is
 nearest half the phase-1 peak force, (b) the phase-1 peak, (c) the last converged state.
@@ -18,7 +19,6 @@ nearest half the phase-1 peak force, (b) the phase-1 peak, (c) the last converge
 from __future__ import annotations
 
 import contextlib
-import csv
 import time
 from collections.abc import Callable
 from pathlib import Path
@@ -36,21 +36,10 @@ if TYPE_CHECKING:
     from biplan.geometry import Tube
     from biplan.solvers import Solution
 
-__all__ = ["CSV_COLUMNS", "MAX_DISPLACEMENT", "demo", "phase_one", "snapshots", "write_csv"]
+__all__ = ["MAX_DISPLACEMENT", "demo", "phase_one", "snapshots"]
 
 #: Final prescribed end displacement of the demo sweep [mm].
 MAX_DISPLACEMENT = 9.0
-CSV_COLUMNS = (
-    "displacement",
-    "force",
-    "u_z",
-    "u_r",
-    "theta",
-    "energy",
-    "min_eigenvalue",
-    "stable",
-    "status",
-)
 #: Print every TABLE_STRIDE-th step in the table (and the last one).
 TABLE_STRIDE = 5
 DPI = 300
@@ -96,27 +85,6 @@ def snapshots(path: QuasiStaticPath) -> dict[str, int]:
     peak = int(idx[np.argmax(path.force[idx])])
     half = int(idx[np.argmin(np.abs(path.force[idx] - 0.5 * path.force[peak]))])
     return {"a": half, "b": peak, "c": int(ok[-1])}
-
-
-def write_csv(path: QuasiStaticPath, file: Path) -> None:
-    """Write one row per step with the columns :data:`CSV_COLUMNS` (units in module doc)."""
-    with file.open("w", newline="") as fh:
-        out = csv.writer(fh)
-        out.writerow(CSV_COLUMNS)
-        for k in range(len(path.displacement)):
-            numbers = (
-                path.displacement[k],
-                path.force[k],
-                path.u_z[k],
-                path.u_r[k],
-                path.theta[k],
-                path.energy[k],
-                path.min_eigenvalue[k],
-            )
-            out.writerow(
-                [f"{float(x):.12g}" for x in numbers]
-                + [int(bool(path.stable[k])), path.status[k].name]
-            )
 
 
 def _table(path: QuasiStaticPath) -> Table:
@@ -315,7 +283,9 @@ def demo(
         console.print(_table(path))
     console.print(_summary(path, seconds), soft_wrap=True)
     try:
-        write_csv(path, out / "demo.csv")  # first: kept even if no step converged
+        from biplan.io.results import save_sweep_csv
+
+        save_sweep_csv(path, out / "demo.csv")  # first: kept even if no step converged
         files = _figures(model, ref, path, snapshots(path), out)
     except OSError as err:
         raise typer.BadParameter(f"cannot write into {out}: {err}", param_hint="--out") from None

@@ -151,14 +151,14 @@ def _linspace(spec: tuple[float, float, int]) -> list[float]:
 def _stage_semi(ctx: _Context) -> None:
     import biplan
     from biplan.analysis.quasistatic import displacement_sweep
-    from biplan.cli.demo import write_csv
+    from biplan.io.results import save_sweep_csv
 
     tube = biplan.designs.semi_bistable()
     model = biplan.Model(tube)
     ref = biplan.relaxed_reference(model)
     n = ctx.settings.sweep_steps
     path = displacement_sweep(model, np.linspace(SWEEP_END / n, SWEEP_END, n), start=ref)
-    write_csv(path, ctx.out / "semi_sweep.csv")
+    save_sweep_csv(path, ctx.out / "semi_sweep.csv")
     facts = SemiBistableFacts(
         b=float(tube.b),
         C=float(tube.C),

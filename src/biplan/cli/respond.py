@@ -31,6 +31,7 @@ import typer
 from rich.console import Console
 
 if TYPE_CHECKING:
+    from biplan.assembly import Model
     from biplan.solvers import Trajectory
 
 __all__ = ["Method", "bifurcation_note", "respond"]
@@ -141,7 +142,7 @@ def respond(
 
 
 def _stable_sweep(
-    model: object, stop: float, step: float, max_steps: int, out: Path, quiet: bool
+    model: Model, stop: float, step: float, max_steps: int, out: Path, quiet: bool
 ) -> None:
     """``--method stable``: :func:`~biplan.analysis.quasistatic.displacement_sweep` in
     ⌈stop/step⌉ equal steps (at most ``max_steps``) from the relaxed reference."""
@@ -153,15 +154,15 @@ def _stable_sweep(
     from biplan.io.results import save_netcdf, save_sweep_csv, sweep_dataset
 
     n = int(min(max(np.ceil(abs(stop) / step), 1), max_steps))
-    ref = biplan.relaxed_reference(model)  # type: ignore[arg-type]
-    path = displacement_sweep(model, np.linspace(stop / n, stop, n), start=ref)  # type: ignore[arg-type]
+    ref = biplan.relaxed_reference(model)
+    path = displacement_sweep(model, np.linspace(stop / n, stop, n), start=ref)
     out.mkdir(parents=True, exist_ok=True)
-    save_netcdf(sweep_dataset(path, model), out / "response.nc")  # type: ignore[arg-type]
+    save_netcdf(sweep_dataset(path, model), out / "response.nc")
     save_sweep_csv(path, out / "response.csv")
     _figure(path, out / "response.png")
     failed = sum(not s.converged for s in path.solutions)
     level = "green" if not failed else "yellow"
-    l0 = model.tube.initial_length  # type: ignore[attr-defined]
+    l0 = model.tube.initial_length
     Console(quiet=quiet, highlight=False).print(
         f"[{level}]stable-branch sweep to U = {stop:g} mm: {n} steps, "
         f"{int(path.switched.sum())} snaps to a stable branch, {failed} failed[/]\n"

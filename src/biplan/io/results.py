@@ -27,6 +27,7 @@ from biplan.solvers.results import Path, Trajectory
 __all__ = [
     "CSV_COLUMNS",
     "SWEEP_COLUMNS",
+    "SWEEP_CSV_COLUMNS",
     "dataset",
     "load_result",
     "model_of",
@@ -64,6 +65,11 @@ SWEEP_COLUMNS = {
     "stable": ("1", "1 stable"),
     "switched": ("1", "1 where the sweep left an unstable equilibrium for a stable one"),
 }
+#: Columns of :func:`save_sweep_csv`, in order.
+SWEEP_CSV_COLUMNS = (
+    "displacement", "force", "u_z", "u_r", "theta", "energy", "min_eigenvalue", "stable",
+    "status", "switched",
+)  # fmt: skip
 
 
 def dataset(result: Path | Trajectory) -> Any:
@@ -178,20 +184,18 @@ def sweep_dataset(path: QuasiStaticPath, model: Model) -> Any:
 
 
 def save_sweep_csv(path: QuasiStaticPath, file: str | FilePath) -> FilePath:
-    """Write a stable-branch sweep, one row per step (``step`` and :data:`SWEEP_COLUMNS`); a
-    first comment line gives the units."""
-    cols = ["step", *SWEEP_COLUMNS]
+    """Write a stable-branch sweep, one row per step with the columns :data:`SWEEP_CSV_COLUMNS`
+    (units as in :data:`SWEEP_COLUMNS`; ``status`` is the Status name). The format of
+    ``demo.csv`` and ``semi_sweep.csv``."""
     out = FilePath(file)
     out.parent.mkdir(parents=True, exist_ok=True)
+    numbers = [c for c in SWEEP_CSV_COLUMNS if c not in ("stable", "status", "switched")]
     with out.open("w", newline="") as fh:
-        units = {c: SWEEP_COLUMNS[c][0] for c in SWEEP_COLUMNS}
-        fh.write("# units: " + ", ".join(f"{c} [{units.get(c, '-')}]" for c in cols) + "\n")
         w = csv.writer(fh)
-        w.writerow(cols)
+        w.writerow(SWEEP_CSV_COLUMNS)
         for k in range(path.n_steps):
-            row = [str(k)]
-            for c in SWEEP_COLUMNS:
-                v = getattr(path, c)[k]
-                row.append(str(int(v)) if isinstance(v, bool | np.bool_) else repr(float(v)))
-            w.writerow(row)
+            w.writerow(
+                [f"{float(getattr(path, c)[k]):.12g}" for c in numbers]
+                + [int(bool(path.stable[k])), path.status[k].name, int(bool(path.switched[k]))]
+            )
     return out
