@@ -100,6 +100,27 @@ def test_respond_stable_branch_sweep(tmp_path: Path) -> None:
                                 "--out", str(out / "again.png")])  # fmt: skip
     assert drawn.exit_code == 0, drawn.output
     assert (out / "again.png").read_bytes()[:4] == b"\x89PNG"
+    # every fold's energy and branch fractions: one circular fold opens at the snap
+    n_h = sum(str(f).startswith("helical") for f in ds["fold"].values)
+    assert n_h == 6 and ds.sizes["fold"] == 12  # six helical, six circular (base fold + 5)
+    np.testing.assert_allclose(ds["fold_energy"].sum("fold"), ds["energy"], rtol=1e-9)
+    np.testing.assert_allclose(ds["helical_energy"] + ds["circular_energy"], ds["energy"],
+                               rtol=1e-9)  # fmt: skip
+    open_ = ds["phase_fraction"].sel(phase="open").values  # (step, fold)
+    assert (open_[:snap] < 0.5).all()
+    assert (open_[snap, :n_h] < 0.5).all() and (open_[snap, n_h:] > 0.5).sum() == 1
+    for kind in ("phases", "energy", "eigenvalue"):
+        drawn = runner.invoke(app, ["plot", str(out / "response.nc"), "--kind", kind,
+                                    "--out", str(out / f"{kind}.png")])  # fmt: skip
+        assert drawn.exit_code == 0, drawn.output
+        assert (out / f"{kind}.png").read_bytes()[:4] == b"\x89PNG"
+    anim = ["--kind", "animation", "--stride", "4", "--dpi", "40", "--out", str(out / "a.gif")]
+    drawn = runner.invoke(app, ["plot", str(out / "response.nc"), *anim])
+    assert drawn.exit_code == 0, drawn.output
+    from PIL import Image
+
+    with Image.open(out / "a.gif") as gif:
+        assert gif.n_frames == 3  # steps 0, 4, 8
     # refused before solving when it cannot apply
     bad = runner.invoke(app, ["respond", str(CONFIG), "--method", "stable", "--out", str(out)])
     assert isinstance(bad.exception, biplan.ConfigError) and "--control displacement" in str(

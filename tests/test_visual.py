@@ -78,6 +78,20 @@ def trajectory_ds(model6, path_states):
     return result_dataset(model6, qs, forces, times=np.linspace(0.0, 0.09, len(qs)))
 
 
+def test_phase_map_of_a_sweep_is_drawn_over_the_displacement(path_ds) -> None:
+    """A stable-branch sweep's U only grows, so its phase map runs over U; a path's (which may
+    turn back at limit points) over the step index."""
+    from biplan.analysis.quasistatic import SWEEP_KIND
+
+    assert phase_fractions(path_ds).get_xlabel() == "step"
+    sweep = path_ds.assign_attrs(kind=SWEEP_KIND)
+    ax = phase_fractions(sweep)
+    assert ax.get_xlabel() == "$U$ [mm]"
+    mesh = next(c for c in ax.collections if c.get_gid() == "phase-fractions")
+    u = sweep["displacement"].values
+    assert mesh.get_coordinates()[0, 0, 0] < u[0] < u[-1] < mesh.get_coordinates()[0, -1, 0]
+
+
 def _opened(model, helical=(), circular=()) -> np.ndarray:
     """A configuration of the fully bistable tube with the given folds opened."""
     n = model.layout.n_modules

@@ -21,7 +21,10 @@ from biplan.analysis.stability import Stability, Verdict, classify, reduced_hess
 from biplan.assembly import Load, Model
 from biplan.solvers.newton import Newton, Solution, Status, relaxed_reference, solve_equilibrium
 
-__all__ = ["QuasiStaticPath", "displacement_sweep", "relax"]
+__all__ = ["SWEEP_KIND", "QuasiStaticPath", "displacement_sweep", "relax"]
+
+#: ``kind`` attribute of a sweep's labelled dataset (:func:`biplan.io.results.sweep_dataset`).
+SWEEP_KIND = "stable-branch sweep"
 
 #: Newton iterations of a proximal sub-problem (inexact proximal point, :func:`relax`).
 SUB_STEPS = 20

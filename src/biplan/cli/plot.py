@@ -2,18 +2,19 @@
 
 RESULT is a netCDF file written by the other commands: a path (``kind = "path"``, dim
 ``step``), a trajectory (``"trajectory"``, dim ``time``), a stable-branch sweep (``"stable-branch
-sweep"``, dim ``step``: ``response``, ``development`` and ``tube`` only) or a state catalogue
-(``"states"``, dim ``state``); its ``config`` attribute rebuilds the model. Kinds:
+sweep"``, dim ``step``) or a state catalogue (``"states"``, dim ``state``); its ``config``
+attribute rebuilds the model. Kinds:
 
 * ``response`` — force against load-point displacement (unstable stretches dashed, snaps of a
   stable-branch sweep dotted);
 * ``development`` — the planar development of one state (``--step``, default the last);
 * ``tube`` — the 3D tube of one state; with ``--out`` ending in ``.vtu`` the state, and with
   ``.pvd`` the whole series (every ``--stride``-th state), are exported for ParaView instead;
-* ``animation`` — GIF or MP4 of a path or trajectory (development, tube, F–U marker);
+* ``animation`` — GIF or MP4 of a path, trajectory or sweep (development, tube, F–U marker);
 * ``gallery`` — 3D thumbnails of all states of a catalogue, in hierarchy order;
 * ``energy``, ``eigenvalue``, ``phases`` — energy by fold set, smallest eigenvalue and open
-  fraction of every fold along a path or trajectory.
+  fraction of every fold along a path, trajectory or sweep (a stable-branch sweep's phase map
+  shows its folds snapping open one by one).
 
 Static figures are written in the format of the ``--out`` suffix (PNG, PDF, SVG, …).
 """
@@ -42,8 +43,6 @@ __all__ = ["Kind", "plot"]
 #: Resolution of static figures [dots per inch].
 DPI = 300
 SERIES_KINDS = ("path", "trajectory")
-#: ``kind`` of a stable-branch displacement sweep (``biplan respond --method stable``).
-SWEEP_KIND = "stable-branch sweep"
 
 
 class Kind(enum.StrEnum):
@@ -102,6 +101,7 @@ def _state(dataset: Any, step: int) -> np.ndarray:
 
 def _figure(dataset: Any, kind: Kind, step: int, color_by: str, guides: bool, view: dict) -> Figure:
     from biplan import plot
+    from biplan.analysis.quasistatic import SWEEP_KIND
     from biplan.plot import diagnostics
     from biplan.plot.gallery import gallery
 
@@ -128,7 +128,7 @@ def _figure(dataset: Any, kind: Kind, step: int, color_by: str, guides: bool, vi
         if "limit_point" in dataset:
             curve.limit_point = np.asarray(dataset["limit_point"].values, dtype=bool)
         return _root(plot.force_displacement(cast("Any", curve)))
-    _require(dataset, kind, SERIES_KINDS)
+    _require(dataset, kind, (*SERIES_KINDS, SWEEP_KIND))
     draw = {
         Kind.energy: diagnostics.energy_by_fold_set,
         Kind.eigenvalue: diagnostics.min_eigenvalue,
@@ -141,7 +141,7 @@ def plot(
     result: Annotated[
         Path,
         typer.Argument(
-            help="Result file (netCDF) of a path, trajectory or state catalogue.",
+            help="Result file (netCDF) of a path, trajectory, sweep or state catalogue.",
             exists=True,
             dir_okay=False,
             show_default=False,
@@ -188,9 +188,10 @@ def plot(
     try:
         out.parent.mkdir(parents=True, exist_ok=True)
         if kind is Kind.animation:
+            from biplan.analysis.quasistatic import SWEEP_KIND
             from biplan.plot.animation import animate
 
-            _require(dataset, kind, SERIES_KINDS)
+            _require(dataset, kind, (*SERIES_KINDS, SWEEP_KIND))
             model = _model(dataset)
             animate(
                 dataset,

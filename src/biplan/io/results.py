@@ -19,8 +19,8 @@ from typing import Any
 import numpy as np
 
 from biplan._errors import ConfigError
-from biplan.analysis.quasistatic import QuasiStaticPath
-from biplan.assembly import Model
+from biplan.analysis.quasistatic import SWEEP_KIND, QuasiStaticPath
+from biplan.assembly import Load, Model
 from biplan.io.config import dump_config, load_config_text
 from biplan.solvers.results import Path, Trajectory
 
@@ -159,14 +159,39 @@ def model_of(ds: Any) -> Model:
 
 
 def sweep_dataset(path: QuasiStaticPath, model: Model) -> Any:
-    """A stable-branch displacement sweep as an ``xarray.Dataset`` over ``step`` (the scalar
-    columns of :data:`SWEEP_COLUMNS`, ``status`` (Status value) and the coordinates ``q``;
-    NaN at failed steps), with ``attrs["config"]`` = the tube's TOML text."""
+    """A stable-branch displacement sweep as an ``xarray.Dataset`` over ``step``.
+
+    Holds the scalar columns of :data:`SWEEP_COLUMNS`, ``status`` (Status value), the
+    coordinates ``q`` and, as a path's dataset does, every fold's energy and phase fractions
+    (``fold_energy`` (step, fold), ``helical_energy``, ``circular_energy``, ``phase_fraction``
+    (step, fold, phase)) — so the energy, eigenvalue, phase and animation plots read it too.
+    Failed steps are NaN. ``attrs["config"]`` is the tube's TOML text.
+    """
     import xarray as xr
 
-    nq = model.n_coordinates
-    q = np.stack([np.asarray(s.q, dtype=float) if s.converged else np.full(nq, np.nan)
-                  for s in path.solutions])  # fmt: skip
+    from biplan.solvers.observe import observe_batch
+    from biplan.solvers.results import PHASES, fold_names
+
+    nq, n = model.n_coordinates, path.n_steps
+    ok = np.array([s.converged for s in path.solutions], dtype=bool)
+    q = np.full((n, nq), np.nan)
+    n_folds = len(fold_names(model))
+    fold_energy = np.full((n, n_folds), np.nan)
+    phase = np.full((n, n_folds, len(PHASES)), np.nan)
+    if ok.any():
+        z = np.stack(
+            [
+                np.asarray(s.z, dtype=float)
+                for s, good in zip(path.solutions, ok, strict=True)
+                if good
+            ]
+        )
+        q[ok] = z[:, :nq]
+        zero = np.zeros(len(z))
+        # fold energies and branch fractions depend on q only (the load enters the force)
+        obs = observe_batch(model.layout, model.params, z, Load(zero, zero, zero))
+        fold_energy[ok] = np.asarray(obs.fold_energy, dtype=float)
+        phase[ok] = np.asarray(obs.phase_fraction, dtype=float)
     data: dict[str, Any] = {}
     for name, (unit, desc) in SWEEP_COLUMNS.items():
         v = np.asarray(getattr(path, name))
@@ -174,13 +199,19 @@ def sweep_dataset(path: QuasiStaticPath, model: Model) -> Any:
         data[name] = ("step", v, {"units": unit, "long_name": desc})
     data["status"] = ("step", np.asarray([s.value for s in path.status]), {"units": "1"})
     data["q"] = (("step", "coordinate"), q, {"units": "mm|rad"})
+    n_h = model.layout.n_modules
+    data["fold_energy"] = (("step", "fold"), fold_energy, {"units": "N*mm"})
+    data["helical_energy"] = ("step", fold_energy[:, :n_h].sum(axis=1), {"units": "N*mm"})
+    data["circular_energy"] = ("step", fold_energy[:, n_h:].sum(axis=1), {"units": "N*mm"})
+    data["phase_fraction"] = (("step", "fold", "phase"), phase, {"units": "1"})
     attrs = {
-        "kind": "stable-branch sweep",
+        "kind": SWEEP_KIND,
         "control": "displacement",
         "initial_length": float(model.tube.initial_length),
         "config": dump_config(model.tube),
     }
-    return xr.Dataset(data, coords={"step": np.arange(path.n_steps)}, attrs=attrs)
+    coords = {"step": np.arange(n), "fold": fold_names(model), "phase": list(PHASES)}
+    return xr.Dataset(data, coords=coords, attrs=attrs)
 
 
 def save_sweep_csv(path: QuasiStaticPath, file: str | FilePath) -> FilePath:

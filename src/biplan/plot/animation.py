@@ -1,4 +1,5 @@
-"""Animations of a path or trajectory: development, 3D tube and the F–U curve (Movie S1).
+"""Animations of a path, trajectory or stable-branch sweep: development, 3D tube and the F–U
+curve (Movie S1).
 
 :func:`animate` renders one frame per saved step (every ``stride``-th) into a figure of three
 panels — the planar development with coloured folds, the wrapped tube, and the force against
@@ -56,12 +57,13 @@ def _curve(dataset: Any) -> SimpleNamespace:
     """The F–U data of a result in the form :func:`force_displacement` reads."""
     n = dataset["force"].size
     stable = dataset["stable"].values if "stable" in dataset else np.ones(n, dtype=np.int8)
+    switched = dataset["switched"].values if "switched" in dataset else np.zeros(n)
     extra = {"limit_point": dataset["limit_point"].values} if "limit_point" in dataset else {}
     return SimpleNamespace(
         displacement=np.asarray(dataset["displacement"].values, dtype=float),
         force=np.asarray(dataset["force"].values, dtype=float),
         stable=np.asarray(stable, dtype=bool),
-        switched=np.zeros(n, dtype=bool),
+        switched=np.asarray(switched, dtype=bool),
         **extra,
     )
 
@@ -124,12 +126,13 @@ def animate(
     elev: float = 20.0,
     azim: float = -60.0,
 ) -> Path:
-    """Write an animation of a path or trajectory (analogue of the paper's Movie S1).
+    """Write an animation of a path, trajectory or stable-branch sweep (analogue of the
+    paper's Movie S1). States that failed to solve (NaN in a sweep) are not drawn.
 
     Parameters
     ----------
     dataset : xarray.Dataset
-        A path (dim ``step``) or trajectory (dim ``time``) with ``q``, ``force``,
+        A path or sweep (dim ``step``) or a trajectory (dim ``time``) with ``q``, ``force``,
         ``displacement`` and ``stable`` (:func:`biplan.io.results.load_result`).
     model : Model
         The model of the result (:func:`biplan.io.results.model_of`).
@@ -149,7 +152,8 @@ def animate(
     Returns
     -------
     Path
-        The file written; it holds ``len(frame_indices(n_saved, stride))`` frames.
+        The file written; it holds one frame per solved state of
+        ``frame_indices(n_saved, stride)``.
 
     Raises
     ------
@@ -165,8 +169,9 @@ def animate(
         raise ValueError(f"fps must be > 0, got {fps}")
     qs = np.asarray(dataset["q"].values, dtype=float)
     frames = frame_indices(len(qs), stride)
+    frames = frames[np.isfinite(qs[frames]).all(axis=1)]
     if not len(frames):
-        raise ValueError("the result has no saved steps to animate")
+        raise ValueError("the result has no solved steps to animate")
     norm = elongation_norm(model, qs[frames]) if color_by == "elongation" else None
     cmap, norm = fold_scale(color_by, norm, model, qs[0])
 

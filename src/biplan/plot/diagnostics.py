@@ -1,4 +1,5 @@
-"""Diagnostics along a path or trajectory: energy by fold set, smallest eigenvalue, phases.
+"""Diagnostics along a path, trajectory or stable-branch sweep: energy by fold set, smallest
+eigenvalue, phases.
 
 Every function takes a result ``xarray.Dataset`` (:func:`biplan.io.results.load_result`; dims
 ``step`` for a path, ``time`` for a trajectory, ``fold``, ``phase``) and an optional ``ax``,
@@ -152,8 +153,8 @@ def phase_fractions(
     phase : {"open", "spinodal", "closed"}
         The branch shown.
     x : str, optional
-        Horizontal axis; default the step index of a path (a path may turn back in U) or the
-        time of a trajectory. Must be monotonic.
+        Horizontal axis; default the step index of a path (a path may turn back in U), the
+        time of a trajectory, the displacement U of a stable-branch sweep. Must be monotonic.
 
     Returns
     -------
@@ -168,7 +169,11 @@ def phase_fractions(
     phases = [str(p) for p in dataset["phase"].values]
     if phase not in phases:
         raise ValueError(f"phase must be one of {phases}, got {phase!r}")
-    xs, xlabel = abscissa(dataset, x or _dim(dataset))
+    from biplan.analysis.quasistatic import SWEEP_KIND
+
+    if x is None:  # a sweep's U only grows; a path's may turn back at limit points
+        x = "displacement" if dataset.attrs.get("kind") == SWEEP_KIND else _dim(dataset)
+    xs, xlabel = abscissa(dataset, x)
     steps = np.diff(xs)
     if len(xs) > 1 and not (np.all(steps > 0) or np.all(steps < 0)):
         raise ValueError(f"x = {x!r} is not monotonic along the result; use x='step'")
