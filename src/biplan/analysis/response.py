@@ -3,10 +3,15 @@
 :func:`summarize` reads the quantities the paper discusses for the semi-bistable MFT off a
 path or trajectory:
 
-* the phase-1 peak: the largest end force before the first loss of stability [N] and the
+* the phase-1 peak: the largest end force before the first loss of stability, the first snap
+  of a stable-branch sweep or the first fall of the force, whichever comes first [N], and the
   load-point displacement there [mm];
 * the spinodal regime: the displacement span [mm] over which the recorded equilibria are
   unstable (λ_min(H_r) < 0) — first unstable to last unstable state;
+* softening: the span [mm] over which the force falls along stable states — a fold's
+  spinodal branch held by displacement control, i.e. a transformation without a snap (one
+  fold on k₂ < 0 in series with n − 1 folds on k₁ is stable under displacement control when
+  (n − 1)|k₂| < k₁ and the rest of the tube adds little compliance);
 * the state at a given end force (default the paper's terminal 1.6 N): u_z/l₀, u_r/l₀ and θ,
   interpolated along the first stretch of the response that reaches that force.
 """
@@ -22,6 +27,9 @@ __all__ = ["ResponseSummary", "summarize"]
 
 #: The paper's terminal force of the design-map ramp [N].
 TERMINAL_FORCE = 1.6
+#: A force falls from one state to the next when it drops by more than this times max |F|
+#: (far above the solver's residual, far below any physical softening step).
+FORCE_TOLERANCE = 1e-8
 
 
 @dataclass(frozen=True)
@@ -40,6 +48,9 @@ class ResponseSummary:
         u_z/l₀ and u_r/l₀ at ``at_force``.
     theta : float
         End slope θ [rad] at ``at_force``.
+    softening_start, softening_end : float
+        Load-point displacement [mm] of the first and last stable state whose force is below
+        the previous state's (NaN when the force never falls along stable states).
     """
 
     peak_force: float
@@ -50,6 +61,8 @@ class ResponseSummary:
     u_z_ratio: float
     u_r_ratio: float
     theta: float
+    softening_start: float = float("nan")
+    softening_end: float = float("nan")
 
     @property
     def spinodal_span(self) -> float:
@@ -70,6 +83,12 @@ class ResponseSummary:
             )
         else:
             out.append("no spinodal regime (every recorded state is stable)")
+        if np.isfinite(self.softening_start):
+            out.append(
+                f"stable softening: the force falls over z_p = {self.softening_start:.3f} … "
+                f"{self.softening_end:.3f} mm without a snap (a transformation held by "
+                "displacement control)"
+            )
         out.append(
             f"at F = {self.at_force:g} N: u_z/l0 = {self.u_z_ratio:.4f}, "
             f"u_r/l0 = {self.u_r_ratio:.4f}, theta = {self.theta:.4f} rad"
@@ -83,8 +102,9 @@ def summarize(
     """Summarize a Path, Trajectory or QuasiStaticPath (anything with the arrays ``force``,
     ``displacement``, ``u_z``, ``u_r``, ``theta``, ``stable``).
 
-    Phase 1 runs up to the first unstable state or, on a stable-branch sweep (a
-    ``switched`` array), up to its first snap; its peak is the largest force before that.
+    Phase 1 runs up to the first unstable state, the first fall of the force along stable
+    states (a stable limit point under displacement control) or, on a stable-branch sweep (a
+    ``switched`` array), its first snap; its peak is the largest force before that.
 
     Parameters
     ----------
@@ -102,10 +122,13 @@ def summarize(
         initial_length = float(result.model.tube.initial_length)
     nan = float("nan")
     unstable = np.flatnonzero(ok & ~stable)
-    # phase 1 ends at the first unstable state or, on a stable-branch sweep (``switched``), at
-    # the first snap to another branch
     switched = np.asarray(getattr(result, "switched", np.zeros(f.size, bool)), dtype=bool)
-    ends = np.flatnonzero((ok & ~stable) | switched)
+    # the force falls from one stable state to the next on the same branch (not a snap)
+    tol = FORCE_TOLERANCE * max(1.0, float(np.max(np.abs(f[ok])))) if ok.any() else 0.0
+    softening = np.zeros(f.size, dtype=bool)
+    both = ok[1:] & ok[:-1] & stable[1:] & stable[:-1] & ~switched[1:]
+    softening[1:] = both & (f[1:] < f[:-1] - tol)
+    ends = np.flatnonzero((ok & ~stable) | switched | softening)
     first_bad = int(ends[0]) if ends.size else len(f)
     phase1 = np.flatnonzero(ok[:first_bad])
     if phase1.size:
@@ -113,6 +136,8 @@ def summarize(
         peak_f, peak_u = float(f[k]), float(zp[k])
     else:
         peak_f = peak_u = nan
+    soft = np.flatnonzero(softening)
+    soft0, soft1 = (float(zp[soft].min()), float(zp[soft].max())) if soft.size else (nan, nan)
     if unstable.size:
         s0, s1 = float(zp[unstable].min()), float(zp[unstable].max())
     else:
@@ -136,4 +161,4 @@ def summarize(
         th = float(result.theta[0])
     else:
         uz = ur = th = nan
-    return ResponseSummary(peak_f, peak_u, s0, s1, float(force), uz, ur, th)
+    return ResponseSummary(peak_f, peak_u, s0, s1, float(force), uz, ur, th, soft0, soft1)

@@ -74,7 +74,13 @@ def respond(
     step: Annotated[
         float, typer.Option(help="Initial path step (arclength or Λ units; stable: mm per step).")
     ] = 0.05,
-    max_step: Annotated[float, typer.Option(help="Largest path step.")] = 0.1,
+    max_step: Annotated[
+        float,
+        typer.Option(
+            help="Largest path step (finer than the API's ArcLength/LoadStepping default, 0.25, "
+            "for smooth curves in the figure and files)."
+        ),
+    ] = 0.1,
     max_steps: Annotated[int, typer.Option(help="Most path steps.")] = 2000,
     rate: Annotated[
         float | None, typer.Option(help="Dynamic ramp rate: N/s, mm/s or kPa/s (default 0.8 N/s).")

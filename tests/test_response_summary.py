@@ -1,0 +1,61 @@
+"""``analysis.response.summarize``: the phase-1 peak, the spinodal regime and stable softening
+read off a response, checked on hand-made curves whose answers are known by construction."""
+
+from __future__ import annotations
+
+from types import SimpleNamespace
+
+import numpy as np
+import pytest
+
+from biplan.analysis.response import summarize
+
+
+def _curve(force, stable=None, switched=None, step: float = 0.2) -> SimpleNamespace:
+    f = np.asarray(force, dtype=float)
+    zp = step * np.arange(1, f.size + 1)
+    out = SimpleNamespace(
+        force=f,
+        displacement=zp,
+        u_z=zp,
+        u_r=-0.1 * zp,
+        theta=-0.01 * zp,
+        stable=np.ones(f.size, bool) if stable is None else np.asarray(stable, bool),
+    )
+    if switched is not None:
+        out.switched = np.asarray(switched, bool)
+    return out
+
+
+def test_stable_softening_ends_phase_one() -> None:
+    """Two folds in series with (n − 1)|k₂| < k₁: the force falls along stable states (no snap,
+    no unstable state) and rises again on the open branch, past the first peak. The phase-1
+    peak is the first maximum, not the larger force at the end."""
+    force = [1.0, 2.0, 3.0, 2.5, 1.0, -0.5, 0.5, 4.0, 9.0]
+    s = summarize(_curve(force), initial_length=10.0)
+    assert (s.peak_force, s.peak_displacement) == (3.0, pytest.approx(0.6))
+    assert (s.softening_start, s.softening_end) == (pytest.approx(0.8), pytest.approx(1.2))
+    assert np.isnan(s.spinodal_start) and s.spinodal_span == 0.0
+    text = "\n".join(s.lines())
+    assert "stable softening" in text and "0.800 … 1.200 mm" in text
+
+
+def test_snaps_and_instability_end_phase_one() -> None:
+    """A snap (``switched``) or an unstable state ends phase 1 where it occurs; a force that
+    only rises has no softening; a drop smaller than the tolerance is not one."""
+    rising = [1.0, 2.0, 2.0 - 1e-12, 3.0, 4.0]
+    s = summarize(_curve(rising), initial_length=1.0)
+    assert s.peak_force == 4.0 and np.isnan(s.softening_start)
+    assert "softening" not in "\n".join(s.lines())
+    snap = summarize(_curve([1, 2, 0.5, 3, 4], switched=[0, 0, 1, 0, 0]), initial_length=1.0)
+    assert snap.peak_force == 2.0 and np.isnan(snap.softening_start)  # a snap is no softening
+    lost = summarize(_curve([1, 2, 2.5, 2.4, 5], stable=[1, 1, 0, 0, 1]), initial_length=1.0)
+    assert lost.peak_force == 2.0
+    assert (lost.spinodal_start, lost.spinodal_end) == (pytest.approx(0.6), pytest.approx(0.8))
+    assert np.isnan(lost.softening_start)  # the fall 2.5 → 2.4 is along unstable states
+
+
+def test_state_at_the_terminal_force_is_interpolated() -> None:
+    s = summarize(_curve([0.0, 1.0, 2.0]), force=1.5, initial_length=2.0)
+    assert s.u_z_ratio == pytest.approx(0.5 * 0.5 * (0.4 + 0.6))
+    assert s.u_r_ratio == pytest.approx(-0.1 * s.u_z_ratio) and s.at_force == 1.5
