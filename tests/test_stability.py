@@ -33,6 +33,12 @@ def symmetric_path(model6, reference6):
     return out
 
 
+def _circular_fractions(model, q) -> np.ndarray:
+    """(closed, spinodal, open) length fractions of every circular fold, (Nc, 3)."""
+    frac = biplan.assembly.phase_fractions(model.layout, model.params, q)
+    return np.asarray(frac)[model.layout.n_modules :]
+
+
 def _random_orthogonal(rng, n):
     q, r = np.linalg.qr(rng.normal(size=(n, n)))
     return q * np.sign(np.diag(r))
@@ -89,6 +95,59 @@ def test_stability_changes_once_along_the_path(model6, symmetric_path):
     # the loss of stability coincides with the force peak (dF/dU = 0 ⇔ zero reduced
     # stiffness for folds in series under displacement control)
     assert int(np.argmax(forces)) in (k, k + 1)
+
+
+def test_transformation_starts_distributed_over_every_fold(model6, symmetric_path):
+    """Before it snaps, the semi-bistable tube transforms in every circular fold at once: the
+    last stable state before the force peak (U = 1.5 mm, λ_min > 0) has each of the six folds
+    partly on its spinodal branch (the helical coupling tilts each fold's field, so it enters
+    the spinodal from one side); the snap then localises the transformation in one fold
+    (docs/fidelity.md, "Distributed onset, serrated completion")."""
+    sol = symmetric_path[1.5]
+    st = biplan.classify(model6, sol)
+    assert st.verdict is Verdict.STABLE and st.min_eigenvalue > 0.1
+    spinodal = np.sort(_circular_fractions(model6, sol.q)[:, 1])
+    assert len(spinodal) == 6
+    assert spinodal[0] > 0.25 and spinodal[1] > 0.6
+
+
+@pytest.mark.parametrize("k2", [-0.2, -1.2])
+def test_series_criterion_decides_snap_or_stable_softening(model2, k2):
+    """Two circular folds in series (stiff helical folds, so the fields stay uniform) under a
+    displacement-controlled stable-branch sweep, past the fold capacity k₁w₁H. With one fold on
+    k₂ < 0 and the other on k₁ the chain's compliance is 1/(H k₂) + 1/(H k₁):
+
+    * |k₂| < k₁: negative — the fold crosses its spinodal stably while the other unloads, the
+      force falls with dF/dU = H/(1/k₂ + 1/k₁) and λ_min(H_r) = H (k₁ + k₂)/2 (the Hessian
+      diag(H k₁, H k₂) on the plane dw₁ + dw₂ = 0): no snap;
+    * |k₂| > k₁: positive — a snap-back, which displacement control passes by a snap."""
+    from biplan.analysis.quasistatic import displacement_sweep
+    from biplan.analysis.response import summarize
+
+    k1 = 0.9
+    law = biplan.TrilinearLaw(stiffness=(k1, k2, 0.6), transitions=(0.2, 1.3))
+    model = biplan.Model(make_tube(2, helical=biplan.LinearLaw(200.0), circular=law))
+    assert model.layout == model2.layout  # shares the suite's compiled kernels
+    u = np.round(np.arange(0.1, 1.01, 0.1), 10)
+    path = displacement_sweep(model, u, start=biplan.relaxed_reference(model))
+    assert all(s.converged for s in path.solutions) and path.stable.all()
+    summary = summarize(path, initial_length=model.tube.initial_length)
+    assert summary.peak_force == pytest.approx(k1 * 0.2 * H, rel=0.01)  # the capacity k1 w1 H
+    spinodal = np.array([_circular_fractions(model, s.q)[:, 1] for s in path.solutions])
+    if abs(k2) < k1:
+        assert not path.switched.any()
+        soft = (u >= 0.5) & (u <= 1.0)  # one fold wholly on its spinodal, the other closed
+        assert (np.sort(spinodal[soft], axis=1) == [0.0, 1.0]).all()
+        slope = np.diff(path.force[soft]) / np.diff(u[soft])
+        np.testing.assert_allclose(slope, H / (1 / k2 + 1 / k1), rtol=0.01)
+        np.testing.assert_allclose(path.min_eigenvalue[soft], H * (k1 + k2) / 2, rtol=0.01)
+        assert summary.softening_start == pytest.approx(0.5)
+    else:
+        snap = int(np.flatnonzero(path.switched)[0])
+        assert u[snap] == pytest.approx(0.5) and path.force[snap] < 0 < path.force[snap - 1]
+        # landed with one fold on its spinodal and the other pressed flat (contact)
+        assert (np.sort(spinodal[snap]) == [0.0, 1.0]).all()
+        assert np.isinf(path.min_eigenvalue[snap])
 
 
 @pytest.mark.parametrize("u_end", [0.5, 2.0])
