@@ -95,7 +95,9 @@ def test_quick_report_has_a_verdict_for_every_claim(quick_run: Path) -> None:
 def _semi(good: bool) -> SemiBistableFacts:
     n = 30
     u = np.linspace(0.3, 9.0, n)
+    spinodal = np.zeros((n, 6))
     if good:  # phase 1 to 1.5 N, one snap, phase 2 rising; bending in phase 1 and the snap
+        spinodal[9] = [0.3, 0.6, 0.6, 0.6, 0.6, 0.6]  # every fold softening before the snap
         force = np.r_[np.linspace(0.1, 1.5, 10), np.linspace(0.5, 2.0, n - 10)]
         stable = np.ones(n, dtype=bool)
         switched = np.zeros(n, dtype=bool)
@@ -109,7 +111,9 @@ def _semi(good: bool) -> SemiBistableFacts:
         switched = np.zeros(n, dtype=bool)
         u_r = theta = np.zeros(n)
         b = 0.8
-    return SemiBistableFacts(b, 1.444, 21.6, u, force, u.copy(), u_r, theta, stable, switched)
+    return SemiBistableFacts(
+        b, 1.444, 21.6, u, force, u.copy(), u_r, theta, stable, switched, spinodal
+    )
 
 
 def _design_map(good: bool) -> xr.Dataset:
@@ -220,6 +224,28 @@ def test_no_verdict_is_typed(claim) -> None:
         if isinstance(node, ast.Call) and isinstance(node.func, ast.Name):
             calls.add(node.func.id)
     assert calls & {"grade", "grade_distance"}, claim.id
+
+
+def test_distributed_onset_with_serrated_completion_is_partly() -> None:
+    """The model's picture (docs/fidelity.md): every fold softening before the first snap,
+    then one snap per fold — half of the claim. Without the onset data, or with only one fold
+    softening, neither half holds."""
+    from dataclasses import replace
+
+    claim = next(c for c in CLAIMS if c.id == "fig3.distributed")
+    semi = _semi(True)
+    switched = semi.switched.copy()
+    switched[[14, 18, 22]] = True  # four snaps
+    results = _results(True)
+    results.semi = replace(semi, switched=switched)
+    found = assess(results, [claim])[0].finding
+    assert found.verdict is Verdict.PARTLY and "6 of 6" in found.value, found
+    one = semi.spinodal.copy()
+    one[9, 1:] = 0.0
+    results.semi = replace(semi, switched=switched, spinodal=one)
+    assert assess(results, [claim])[0].finding.verdict is Verdict.NOT
+    results.semi = replace(semi, switched=switched, spinodal=None)
+    assert assess(results, [claim])[0].finding.verdict is Verdict.NOT
 
 
 def test_failed_stage_is_reported_not_computed() -> None:

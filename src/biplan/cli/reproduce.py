@@ -151,7 +151,7 @@ def _linspace(spec: tuple[float, float, int]) -> list[float]:
 def _stage_semi(ctx: _Context) -> None:
     import biplan
     from biplan.analysis.quasistatic import displacement_sweep
-    from biplan.io.results import save_sweep_csv
+    from biplan.io.results import save_sweep_csv, sweep_dataset
 
     tube = biplan.designs.semi_bistable()
     model = biplan.Model(tube)
@@ -159,6 +159,7 @@ def _stage_semi(ctx: _Context) -> None:
     n = ctx.settings.sweep_steps
     path = displacement_sweep(model, np.linspace(SWEEP_END / n, SWEEP_END, n), start=ref)
     save_sweep_csv(path, ctx.out / "semi_sweep.csv")
+    phases = sweep_dataset(path, model)["phase_fraction"].sel(phase="spinodal").values
     facts = SemiBistableFacts(
         b=float(tube.b),
         C=float(tube.C),
@@ -170,6 +171,7 @@ def _stage_semi(ctx: _Context) -> None:
         theta=np.asarray(path.theta, dtype=float),
         stable=np.asarray(path.stable, dtype=bool),
         switched=np.asarray(path.switched, dtype=bool),
+        spinodal=np.asarray(phases[:, model.layout.n_modules :], dtype=float),
     )
     ctx.semi_path, ctx.semi_model = path, model
     ctx.results.semi = facts

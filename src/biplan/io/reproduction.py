@@ -104,6 +104,8 @@ class SemiBistableFacts:
         Per sweep step [mm, N, mm, mm, rad]; NaN where a step failed.
     stable, switched : ndarray of bool
         Stable equilibrium; the step left an unstable state for a stable one (a snap).
+    spinodal : ndarray (step, circular fold), optional
+        Fraction of each circular fold's length on its spinodal branch (NaN at failed steps).
     """
 
     b: float
@@ -116,6 +118,19 @@ class SemiBistableFacts:
     theta: np.ndarray
     stable: np.ndarray
     switched: np.ndarray
+    spinodal: np.ndarray | None = None
+
+    #: A fold counts as transforming when more than this fraction of it is on the spinodal.
+    ONSET_FRACTION = 0.05
+
+    @property
+    def onset_spread(self) -> int:
+        """Circular folds partly on their spinodal branch at the last phase-1 step, just before
+        the first snap (0 without ``spinodal`` data or a phase 1)."""
+        last = self.phase_one.stop - 1
+        if self.spinodal is None or last < 0:
+            return 0
+        return int(np.sum(np.asarray(self.spinodal)[last] > self.ONSET_FRACTION))
 
     @property
     def regular(self) -> np.ndarray:
@@ -313,12 +328,20 @@ def _within_ramp(r: Results) -> Finding:
 def _distributed(r: Results) -> Finding:
     s = r.semi
     assert s is not None
-    n = int(s.snaps.size)
+    n, spread = int(s.snaps.size), s.onset_spread
+    folds = "?" if s.spinodal is None else str(np.shape(s.spinodal)[1])
+    value = (
+        f"{n} snap(s) on the stable-branch displacement sweep; {spread} of {folds} circular "
+        "folds partly on their spinodal branch just before the first"
+    )
+    if not n:
+        return Finding(value, grade([]), "no transformation found")
+    checks = [spread >= 2, n == 1]
     return Finding(
-        f"{n} snap(s) on the stable-branch displacement sweep",
-        grade_distance(max(n - 1, 0) if n else float("nan"), 0, 1),
-        "one spinodal passage (distributed) vs fold-by-fold snaps (serrated): "
-        + ("distributed" if n == 1 else "serrated" if n > 1 else "no transformation found"),
+        value,
+        grade(checks),
+        "the transformation starts in several folds at once (distributed onset); it completes "
+        "in one passage, not fold by fold: " + "/".join("yes" if c else "no" for c in checks),
     )
 
 
