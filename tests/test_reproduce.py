@@ -38,6 +38,7 @@ from biplan.io.reproduction import (
 DATA_FILES = (
     "REPRODUCTION.md",
     "semi_sweep.csv",
+    "semi_sweep.nc",
     "validation.csv",
     "design_map/map.nc",
     "stability_map/map.nc",

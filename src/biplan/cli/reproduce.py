@@ -4,8 +4,8 @@ Runs, each as an isolated stage (a stage that fails is recorded in the report wi
 and the command goes on):
 
 * ``semi`` — the validated semi-bistable design (SI Table calib) under displacement control
-  (stable-branch sweep to 11 mm): ``semi_sweep.csv``, ``fig3_B_snapshots.png`` (phase 1, the
-  transformation, phase 2; planar developments above, 3D tubes below);
+  (stable-branch sweep to 11 mm): ``semi_sweep.csv`` and ``.nc``, ``fig3_B_snapshots.png``
+  (phase 1, the transformation, phase 2; planar developments above, 3D tubes below);
 * ``validation`` — the sweep against the measured ± 1 SD band (``--measured DIR`` of specimen
   CSVs, default a synthetic band made from the sweep with specimen scatter):
   ``fig3_A2_force_displacement.png``, ``validation.csv``;
@@ -151,7 +151,7 @@ def _linspace(spec: tuple[float, float, int]) -> list[float]:
 def _stage_semi(ctx: _Context) -> None:
     import biplan
     from biplan.analysis.quasistatic import displacement_sweep
-    from biplan.io.results import save_sweep_csv, sweep_dataset
+    from biplan.io.results import save_netcdf, save_sweep_csv, sweep_dataset
 
     tube = biplan.designs.semi_bistable()
     model = biplan.Model(tube)
@@ -159,7 +159,9 @@ def _stage_semi(ctx: _Context) -> None:
     n = ctx.settings.sweep_steps
     path = displacement_sweep(model, np.linspace(SWEEP_END / n, SWEEP_END, n), start=ref)
     save_sweep_csv(path, ctx.out / "semi_sweep.csv")
-    phases = sweep_dataset(path, model)["phase_fraction"].sel(phase="spinodal").values
+    dataset = sweep_dataset(path, model)
+    save_netcdf(dataset, ctx.out / "semi_sweep.nc")  # biplan plot semi_sweep.nc --kind phases
+    phases = dataset["phase_fraction"].sel(phase="spinodal").values
     facts = SemiBistableFacts(
         b=float(tube.b),
         C=float(tube.C),
