@@ -59,3 +59,29 @@ def test_state_at_the_terminal_force_is_interpolated() -> None:
     s = summarize(_curve([0.0, 1.0, 2.0]), force=1.5, initial_length=2.0)
     assert s.u_z_ratio == pytest.approx(0.5 * 0.5 * (0.4 + 0.6))
     assert s.u_r_ratio == pytest.approx(-0.1 * s.u_z_ratio) and s.at_force == 1.5
+
+
+def test_phase_one_is_one_definition() -> None:
+    """``summarize``, the demo's snapshots and the reproduce report end phase 1 at the same
+    step: the first failure, instability, snap or stable fall of the force."""
+    from biplan.analysis.response import phase_one_end
+    from biplan.cli.demo import phase_one
+    from biplan.io.reproduction import SemiBistableFacts
+
+    cases = {
+        "softening": ([1.0, 2.0, 3.0, 2.5, 9.0], [1] * 5, [0] * 5, 3),
+        "failure": ([1.0, 2.0, np.nan, 4.0, 5.0], [1] * 5, [0] * 5, 2),
+        "unstable": ([1.0, 2.0, 3.0, 4.0, 5.0], [1, 1, 1, 0, 1], [0] * 5, 3),
+        "snap": ([1.0, 2.0, 0.5, 4.0, 5.0], [1] * 5, [0, 0, 1, 0, 0], 2),
+        "regular": ([1.0, 2.0, 3.0, 4.0, 5.0], [1] * 5, [0] * 5, 5),
+    }
+    for name, (f, st, sw, end) in cases.items():
+        curve = _curve(f, stable=st, switched=sw)
+        assert phase_one_end(curve.force, curve.stable, curve.switched) == end, name
+        assert phase_one(curve) == slice(0, end), name
+        u = curve.displacement
+        facts = SemiBistableFacts(0.5, 1.0, 1.0, u, curve.force, u, u, u, curve.stable,
+                                  curve.switched)  # fmt: skip
+        assert facts.phase_one == slice(0, end), name
+        peak = np.nanmax(curve.force[:end]) if end else np.nan
+        assert summarize(curve, initial_length=1.0).peak_force == peak, name

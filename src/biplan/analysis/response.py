@@ -23,7 +23,7 @@ from typing import Any
 
 import numpy as np
 
-__all__ = ["ResponseSummary", "summarize"]
+__all__ = ["ResponseSummary", "phase_one_end", "softening_steps", "summarize"]
 
 #: The paper's terminal force of the design-map ramp [N].
 TERMINAL_FORCE = 1.6
@@ -96,15 +96,44 @@ class ResponseSummary:
         return out
 
 
+def softening_steps(
+    force: np.ndarray, stable: np.ndarray, switched: np.ndarray | None = None
+) -> np.ndarray:
+    """Steps whose force fell from the previous step's along stable states on one branch
+    (not a snap): bool (n_steps,). A fall counts when it exceeds :data:`FORCE_TOLERANCE`
+    times max |F|."""
+    f = np.asarray(force, dtype=float)
+    ok = np.isfinite(f)
+    st = np.asarray(stable, dtype=bool)
+    sw = np.zeros(f.size, bool) if switched is None else np.asarray(switched, dtype=bool)
+    tol = FORCE_TOLERANCE * max(1.0, float(np.max(np.abs(f[ok])))) if ok.any() else 0.0
+    out = np.zeros(f.size, dtype=bool)
+    out[1:] = ok[1:] & ok[:-1] & st[1:] & st[:-1] & ~sw[1:] & (f[1:] < f[:-1] - tol)
+    return out
+
+
+def phase_one_end(force: np.ndarray, stable: np.ndarray, switched: np.ndarray | None = None) -> int:
+    """End (exclusive) of phase 1: the first step that failed (NaN force), is unstable,
+    snapped (``switched``) or whose force fell along stable states (:func:`softening_steps`);
+    the number of steps if none did."""
+    f = np.asarray(force, dtype=float)
+    sw = np.zeros(f.size, bool) if switched is None else np.asarray(switched, dtype=bool)
+    irregular = ~np.isfinite(f) | ~np.asarray(stable, dtype=bool) | sw
+    irregular |= softening_steps(f, stable, switched)
+    hits = np.flatnonzero(irregular)
+    return int(hits[0]) if hits.size else int(f.size)
+
+
 def summarize(
     result: Any, force: float = TERMINAL_FORCE, initial_length: float | None = None
 ) -> ResponseSummary:
     """Summarize a Path, Trajectory or QuasiStaticPath (anything with the arrays ``force``,
     ``displacement``, ``u_z``, ``u_r``, ``theta``, ``stable``).
 
-    Phase 1 runs up to the first unstable state, the first fall of the force along stable
-    states (a stable limit point under displacement control) or, on a stable-branch sweep (a
-    ``switched`` array), its first snap; its peak is the largest force before that.
+    Phase 1 runs up to the first failed or unstable state, the first fall of the force along
+    stable states (a stable limit point under displacement control) or, on a stable-branch
+    sweep (a ``switched`` array), its first snap (:func:`phase_one_end`); its peak is the
+    largest force before that.
 
     Parameters
     ----------
@@ -122,15 +151,9 @@ def summarize(
         initial_length = float(result.model.tube.initial_length)
     nan = float("nan")
     unstable = np.flatnonzero(ok & ~stable)
-    switched = np.asarray(getattr(result, "switched", np.zeros(f.size, bool)), dtype=bool)
-    # the force falls from one stable state to the next on the same branch (not a snap)
-    tol = FORCE_TOLERANCE * max(1.0, float(np.max(np.abs(f[ok])))) if ok.any() else 0.0
-    softening = np.zeros(f.size, dtype=bool)
-    both = ok[1:] & ok[:-1] & stable[1:] & stable[:-1] & ~switched[1:]
-    softening[1:] = both & (f[1:] < f[:-1] - tol)
-    ends = np.flatnonzero((ok & ~stable) | switched | softening)
-    first_bad = int(ends[0]) if ends.size else len(f)
-    phase1 = np.flatnonzero(ok[:first_bad])
+    switched = getattr(result, "switched", None)
+    softening = softening_steps(f, stable, switched)
+    phase1 = np.flatnonzero(ok[: phase_one_end(f, stable, switched)])
     if phase1.size:
         k = int(phase1[np.argmax(f[phase1])])
         peak_f, peak_u = float(f[k]), float(zp[k])

@@ -65,10 +65,11 @@ def _sweep(
 
 def phase_one(path: QuasiStaticPath) -> slice:
     """Steps of phase 1: from the start up to (excluding) the first step that failed, is
-    unstable or switched branch (the first snap)."""
-    regular = np.isfinite(path.force) & path.stable & ~path.switched
-    end = int(np.argmin(regular)) if not regular.all() else len(regular)
-    return slice(0, end)
+    unstable, switched branch (the first snap) or whose force fell along stable states
+    (:func:`biplan.analysis.response.phase_one_end`)."""
+    from biplan.analysis.response import phase_one_end
+
+    return slice(0, phase_one_end(path.force, path.stable, path.switched))
 
 
 def snapshots(path: QuasiStaticPath) -> dict[str, int]:

@@ -27,6 +27,8 @@ from typing import Any
 
 import numpy as np
 
+from biplan.analysis.response import phase_one_end
+
 __all__ = [
     "CLAIMS",
     "FIGURES",
@@ -139,9 +141,9 @@ class SemiBistableFacts:
 
     @property
     def phase_one(self) -> slice:
-        """Steps before the first irregular one (the first snap, failure or instability)."""
-        r = self.regular
-        return slice(0, int(np.argmin(r)) if not r.all() else r.size)
+        """Steps before the first irregular one: the first snap, failure, instability or fall
+        of the force along stable states (:func:`biplan.analysis.response.phase_one_end`)."""
+        return slice(0, phase_one_end(self.force, self.stable, self.switched))
 
     @property
     def snaps(self) -> np.ndarray:
