@@ -190,7 +190,13 @@ def _advance(
     select_stable: bool,
     depth: int = 0,
 ) -> tuple[Solution, Stability | None, bool]:
-    """Solve at ``target`` from ``current``; on failure bisect the increment (≤ 4 levels)."""
+    """Solve at ``target`` from ``current``; on failure bisect the increment (≤ 4 levels).
+
+    Only the first try restarts from zero contact multipliers on failure
+    (:attr:`Newton.contact_restart`): the bisection starts from the same state, and past a
+    vanished branch (a snap) every restart fails too, doubling each try's cost."""
+    if depth:
+        solver = replace(solver, contact_restart=False)
     sol = solve_equilibrium(model, solver, current, Load.of_displacement(target))
     if not sol.converged:
         if depth >= 4:
