@@ -23,6 +23,12 @@ if TYPE_CHECKING:
 
 __all__ = ["distributions", "endpoint_space", "transition_diagram"]
 
+#: Height [in] per state of the tallest column of :func:`transition_diagram` (a 4.2-in figure
+#: holds 20; larger catalogues, e.g. 242 states of a five-module tube, get a taller figure).
+ROW_HEIGHT = 0.165
+#: :func:`endpoint_space` names the states only up to this many (beyond, labels overlap).
+MAX_ANNOTATED = 80
+
 #: Okabe–Ito colours for pathways and slope branches.
 PALETTE = ("#0072B2", "#D55E00", "#009E73", "#CC79A7", "#E69F00", "#56B4E9", "#F0E442", "#000000")
 
@@ -55,9 +61,14 @@ def transition_diagram(
         From :func:`biplan.analysis.transitions.transition_graph`.
     pathways : sequence of sequences of state names
         Drawn in colour, in order, labelled ``names`` (default p1, p2, …).
+
+    A new figure is 7 in wide and tall enough for its tallest column (:data:`ROW_HEIGHT` per
+    state, at least 4.2 in).
     """
-    ax = _new_axes(ax, (7.0, 4.2))
     pos = _positions(graph)
+    # a column of n states needs ~ROW_HEIGHT inches per state to keep labels apart
+    tallest = max((round(2 * abs(y)) + 1 for _, y in pos.values()), default=1)
+    ax = _new_axes(ax, (7.0, max(4.2, ROW_HEIGHT * tallest + 0.9)))
     for u, v in graph.edges:
         (x0, y0), (x1, y1) = pos[u], pos[v]
         ax.plot([x0, x1], [y0, y1], color="0.8", lw=0.6, zorder=1)
@@ -86,6 +97,8 @@ def endpoint_space(states: Any, *, ax: Axes | None = None, annotate: bool = True
     ----------
     states : xarray.Dataset
         A state catalogue (``StateCatalogue.to_dataset()`` or a ``states.nc`` file).
+    annotate : bool
+        Name every state (only for catalogues of at most :data:`MAX_ANNOTATED` states).
     """
     ax = _new_axes(ax, (4.2, 3.6), projection="3d")
     l0 = float(states.attrs["initial_length"])
@@ -104,7 +117,7 @@ def endpoint_space(states: Any, *, ax: Axes | None = None, annotate: bool = True
             label=f"{b} open helical",
             depthshade=False,
         )
-    if annotate:
+    if annotate and uz.size <= MAX_ANNOTATED:
         for name, x, y, z in zip(states["state"].values, uz, ur, th, strict=True):
             ax.text(x, y, z, f" {name}", fontsize=FONT_SIZE - 3)  # type: ignore[arg-type]
     ax.set_xlabel("$u_z/l_0$")
