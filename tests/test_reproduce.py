@@ -247,6 +247,11 @@ def test_distributed_onset_with_serrated_completion_is_partly() -> None:
     assert assess(results, [claim])[0].finding.verdict is Verdict.NOT
     results.semi = replace(semi, switched=switched, spinodal=None)
     assert assess(results, [claim])[0].finding.verdict is Verdict.NOT
+    # a short tube: the folds soften together and transform without a snap
+    force = np.r_[np.linspace(0.1, 1.5, 10), np.linspace(1.4, 0.2, 10), np.linspace(0.3, 2, 10)]
+    calm = np.zeros(semi.force.size, dtype=bool)
+    results.semi = replace(semi, force=force, switched=calm)
+    assert assess(results, [claim])[0].finding.verdict is Verdict.REPRODUCED
 
 
 def test_failed_stage_is_reported_not_computed() -> None:
