@@ -292,6 +292,18 @@ def test_animation_writes_one_frame_per_saved_step(
         assert imageio_ffmpeg.count_frames_and_secs(str(out))[0] == n_frames
 
 
+def test_animation_skips_failed_steps(model6, path_ds, tmp_path) -> None:
+    """A sweep's failed steps (NaN states), the first one included, get no frame."""
+    q = path_ds["q"].values.copy()
+    q[[0, 2]] = np.nan
+    ds = path_ds.assign(q=(path_ds["q"].dims, q))
+    out = animate(ds, model6, tmp_path / "gaps.gif", dpi=40)
+    assert iio.imread(out, index=None).shape[0] == path_ds.sizes["step"] - 2
+    ds = path_ds.assign(q=(path_ds["q"].dims, np.full_like(q, np.nan)))
+    with pytest.raises(ValueError, match="no solved steps"):
+        animate(ds, model6, tmp_path / "none.gif")
+
+
 def test_animation_rejects_bad_input(model6, path_ds, tmp_path) -> None:
     with pytest.raises(ValueError, match=r"\.gif or \.mp4"):
         animate(path_ds, model6, tmp_path / "movie.avi")

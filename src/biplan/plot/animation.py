@@ -173,7 +173,7 @@ def animate(
     if not len(frames):
         raise ValueError("the result has no solved steps to animate")
     norm = elongation_norm(model, qs[frames]) if color_by == "elongation" else None
-    cmap, norm = fold_scale(color_by, norm, model, qs[0])
+    cmap, norm = fold_scale(color_by, norm, model, qs[frames[0]])
 
     fig = Figure(figsize=(7.0, 3.0), dpi=dpi, layout="constrained")
     canvas = FigureCanvasAgg(fig)
