@@ -55,15 +55,15 @@ def transition_diagram(
 ) -> Axes:
     """Draw the state-transition graph with pathways highlighted.
 
+    A new figure is 7 in wide and tall enough for its tallest column (``ROW_HEIGHT`` inches
+    per state, at least 4.2 in).
+
     Parameters
     ----------
     graph : networkx.Graph
         From :func:`biplan.analysis.transitions.transition_graph`.
     pathways : sequence of sequences of state names
         Drawn in colour, in order, labelled ``names`` (default p1, p2, …).
-
-    A new figure is 7 in wide and tall enough for its tallest column (:data:`ROW_HEIGHT` per
-    state, at least 4.2 in).
     """
     pos = _positions(graph)
     # a column of n states needs ~ROW_HEIGHT inches per state to keep labels apart
