@@ -183,7 +183,11 @@ def test_stability_map_cells_and_band_outline() -> None:
     cells: a 2 × 2 block in a 3 × 5 grid has a perimeter of 8 cell sides."""
     import xarray as xr
 
-    from biplan.plot.maps import _band_outline, _edges, stability_map
+    from biplan.plot.maps import _band_outline, stability_map
+    from biplan.plot.response import cell_edges
+
+    def _edges(x):  # the map's axes: C and U/l0 do not extend below zero
+        return cell_edges(x, clip_at_zero=True)
 
     u = np.array([0.01, 0.06, 0.11, 0.16, 0.21])
     c = np.array([0.5, 1.75, 3.0])
@@ -199,6 +203,7 @@ def test_stability_map_cells_and_band_outline() -> None:
     assert ax.get_ylim() == pytest.approx((0.0, 3.625))
     np.testing.assert_allclose(_edges(c), [0.0, 1.125, 2.375, 3.625])
     np.testing.assert_allclose(_edges(np.array([-1.0, 1.0])), [-2.0, 0.0, 2.0])
+    np.testing.assert_allclose(cell_edges(c), [-0.125, 1.125, 2.375, 3.625])  # unclipped
     segments = _band_outline(band, _edges(u), _edges(c))
     assert len(segments) == 8
     # every segment lies on the boundary of the block [0.035, 0.135] × [0, 2.375]

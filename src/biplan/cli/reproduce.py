@@ -205,13 +205,14 @@ def _snapshot_figure(model: Any, path: Any, facts: SemiBistableFacts, file: Path
 
 def _synthetic_band(path: Any, seed: int = 11) -> Any:
     """A five-specimen band from the model's own sweep with specimen scatter (as in
-    examples/data/make_synthetic.py): phase 1 up to the first snap, phase 2 after the last."""
+    examples/data/make_synthetic.py): phase 1 (up to the first snap,
+    :func:`~biplan.analysis.response.phase_one_end`), phase 2 after the last snap."""
+    from biplan.analysis.response import phase_one_end
     from biplan.analysis.specimens import Segment, Specimen, band_statistics
     from biplan.analysis.synthetic import sample_segment
 
     ok = np.isfinite(path.force) & path.stable
-    regular = ok & ~path.switched
-    first = int(np.argmin(regular)) if not regular.all() else regular.size
+    first = phase_one_end(path.force, path.stable, path.switched)
     snaps = np.flatnonzero(path.switched)
     u, f = np.asarray(path.displacement), np.asarray(path.force)
     parts = [("1", u[:first], f[:first])]

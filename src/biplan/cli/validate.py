@@ -76,8 +76,9 @@ def summary(result: BandComparison, path: QuasiStaticPath) -> list[str]:
     else:
         lines.append("Prediction stays inside the band wherever both exist.")
     (ua, fa) = band.limits[0, 1]
-    regular = np.isfinite(path.force) & path.stable & ~path.switched
-    stop = int(np.argmin(regular)) if not regular.all() else regular.size  # first snap
+    from biplan.analysis.response import phase_one_end
+
+    stop = phase_one_end(path.force, path.stable, path.switched)
     if stop:
         k = int(np.argmax(path.force[:stop]))
         lines.append(

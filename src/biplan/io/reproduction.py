@@ -135,11 +135,6 @@ class SemiBistableFacts:
         return int(np.sum(np.asarray(self.spinodal)[last] > self.ONSET_FRACTION))
 
     @property
-    def regular(self) -> np.ndarray:
-        """Converged, stable steps that did not snap."""
-        return np.isfinite(self.force) & self.stable & ~self.switched
-
-    @property
     def phase_one(self) -> slice:
         """Steps before the first irregular one: the first snap, failure, instability or fall
         of the force along stable states (:func:`biplan.analysis.response.phase_one_end`)."""

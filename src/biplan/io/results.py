@@ -172,20 +172,13 @@ def sweep_dataset(path: QuasiStaticPath, model: Model) -> Any:
     from biplan.solvers.observe import observe_batch
     from biplan.solvers.results import PHASES, fold_names
 
-    nq, n = model.n_coordinates, path.n_steps
+    nq, n, names = model.n_coordinates, path.n_steps, fold_names(model)
     ok = np.array([s.converged for s in path.solutions], dtype=bool)
     q = np.full((n, nq), np.nan)
-    n_folds = len(fold_names(model))
-    fold_energy = np.full((n, n_folds), np.nan)
-    phase = np.full((n, n_folds, len(PHASES)), np.nan)
+    fold_energy = np.full((n, len(names)), np.nan)
+    phase = np.full((n, len(names), len(PHASES)), np.nan)
     if ok.any():
-        z = np.stack(
-            [
-                np.asarray(s.z, dtype=float)
-                for s, good in zip(path.solutions, ok, strict=True)
-                if good
-            ]
-        )
+        z = np.stack([np.asarray(s.z, dtype=float) for s in path.solutions if s.converged])
         q[ok] = z[:, :nq]
         zero = np.zeros(len(z))
         # fold energies and branch fractions depend on q only (the load enters the force)
@@ -210,7 +203,7 @@ def sweep_dataset(path: QuasiStaticPath, model: Model) -> Any:
         "initial_length": float(model.tube.initial_length),
         "config": dump_config(model.tube),
     }
-    coords = {"step": np.arange(n), "fold": fold_names(model), "phase": list(PHASES)}
+    coords = {"step": np.arange(n), "fold": names, "phase": list(PHASES)}
     return xr.Dataset(data, coords=coords, attrs=attrs)
 
 

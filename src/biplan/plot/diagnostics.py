@@ -15,7 +15,14 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
-from biplan.plot.response import COLUMN_FIGSIZE, FONT_SIZE, _new_axes, _runs, _style
+from biplan.plot.response import (
+    COLUMN_FIGSIZE,
+    FONT_SIZE,
+    _new_axes,
+    _runs,
+    _style,
+    cell_edges,
+)
 
 if TYPE_CHECKING:
     from matplotlib.axes import Axes
@@ -179,11 +186,7 @@ def phase_fractions(
         raise ValueError(f"x = {x!r} is not monotonic along the result; use x='step'")
     frac = np.asarray(dataset["phase_fraction"].sel(phase=phase).values, dtype=float)
     folds = [str(f) for f in dataset["fold"].values]
-    if len(xs) > 1:
-        mid = 0.5 * (xs[1:] + xs[:-1])
-        edges = np.r_[2 * xs[0] - mid[0], mid, 2 * xs[-1] - mid[-1]]
-    else:
-        edges = np.r_[xs - 0.5, xs + 0.5]
+    edges = cell_edges(xs)
     ax = _new_axes(ax, (COLUMN_FIGSIZE[0], COLUMN_FIGSIZE[1] + 0.02 * len(folds)))
     mesh = ax.pcolormesh(edges, np.arange(len(folds) + 1) - 0.5, frac.T, cmap="cividis")
     mesh.set(clim=(0.0, 1.0), gid="phase-fractions", rasterized=True)

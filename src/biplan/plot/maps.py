@@ -18,7 +18,7 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 
 from biplan._errors import ConfigError
-from biplan.plot.response import COLUMN_FIGSIZE, FONT_SIZE, _new_axes, _style
+from biplan.plot.response import COLUMN_FIGSIZE, FONT_SIZE, _new_axes, _style, cell_edges
 
 if TYPE_CHECKING:
     from matplotlib.axes import Axes
@@ -122,7 +122,7 @@ def stability_map(ds: Any, *, ax: Axes | None = None, legend: bool = True) -> Ax
     ax = _new_axes(ax, COLUMN_FIGSIZE)
     reg = ds["regime"].transpose("C", "displacement").values
     u, c = ds["displacement"].values, ds["C"].values
-    ue, ce = _edges(u), _edges(c)
+    ue, ce = cell_edges(u, clip_at_zero=True), cell_edges(c, clip_at_zero=True)
     cmap = ListedColormap((NONE_COLOR, *REGIME_COLORS)).with_extremes(bad="white")
     norm = BoundaryNorm([-0.5, 0.5, 1.5, 2.5, 3.5], cmap.N)
     ax.pcolormesh(ue, ce, np.ma.masked_invalid(reg), cmap=cmap, norm=norm, shading="flat")
@@ -158,20 +158,6 @@ def stability_map(ds: Any, *, ax: Axes | None = None, legend: bool = True) -> Ax
     ax.set_ylabel(r"stiffness ratio $C$")
     _style(ax)
     return ax
-
-
-def _edges(x: np.ndarray) -> np.ndarray:
-    """Cell edges around the centres ``x`` (midpoints; the outer cells as wide as their
-    neighbours). An axis of non-negative values (C, U/l₀) is not extended below zero."""
-    x = np.asarray(x, dtype=float)
-    if x.size == 1:
-        e = np.array([x[0] - 0.5, x[0] + 0.5])
-    else:
-        mid = 0.5 * (x[1:] + x[:-1])
-        e = np.r_[2 * x[0] - mid[0], mid, 2 * x[-1] - mid[-1]]
-    if np.all(x >= 0.0):
-        e = np.maximum(e, 0.0)
-    return e
 
 
 def _band_outline(

@@ -24,7 +24,7 @@ if TYPE_CHECKING:
 
     from biplan.analysis.quasistatic import QuasiStaticPath
 
-__all__ = ["COLUMN_FIGSIZE", "FONT_SIZE", "force_displacement"]
+__all__ = ["COLUMN_FIGSIZE", "FONT_SIZE", "cell_edges", "force_displacement"]
 
 #: Journal single-column figure size [in] and text size [pt].
 COLUMN_FIGSIZE = (3.4, 2.6)
@@ -54,6 +54,21 @@ def _style(ax: Axes) -> None:
     zaxis = getattr(ax, "zaxis", None)
     if zaxis is not None:
         zaxis.label.set_fontsize(FONT_SIZE)
+
+
+def cell_edges(x: np.ndarray, clip_at_zero: bool = False) -> np.ndarray:
+    """Cell edges around the centres ``x`` (midpoints; the outer cells as wide as their
+    neighbours, a single cell 1 wide) for ``pcolormesh``. ``clip_at_zero``: an axis of
+    non-negative values (C, U/l₀) is not extended below zero."""
+    x = np.asarray(x, dtype=float)
+    if x.size == 1:
+        e = np.array([x[0] - 0.5, x[0] + 0.5])
+    else:
+        mid = 0.5 * (x[1:] + x[:-1])
+        e = np.r_[2 * x[0] - mid[0], mid, 2 * x[-1] - mid[-1]]
+    if clip_at_zero and np.all(x >= 0.0):
+        e = np.maximum(e, 0.0)
+    return e
 
 
 def _runs(mask: np.ndarray) -> list[tuple[int, int]]:
