@@ -11,8 +11,8 @@ the residual is the static KKT residual of :func:`biplan.assembly.residual` at t
 the inertia and Rayleigh forces M(q)(q̈ + α_R q̇) + c(q, q̇) in the q rows; the guides and the
 SFB contact conditions hold at t_{n+1} (index 3). Its Jacobian is the static KKT Jacobian plus
 the autodiff derivative of the inertia rows with respect to q. :func:`chunk` advances a fixed
-number of steps with ``lax.scan``; a failed step freezes the rest of the chunk, and the driver
-retries from the last converged state with a smaller step.
+number of steps with ``lax.scan``; a failed step freezes the rest of the chunk (its steps are
+skipped, not solved), and the driver retries from the last converged state with a smaller step.
 """
 
 from __future__ import annotations
@@ -162,9 +162,18 @@ def chunk(
     the first failure the state is frozen (flags False).
     """
 
+    def frozen(s: DynState, t: Array, t_prev: Array) -> StepOut:
+        zero = jnp.zeros((), s.z.dtype)
+        return StepOut(s, jnp.asarray(False), jnp.asarray(0), zero, zero)
+
+    def advance(s: DynState, t: Array, t_prev: Array) -> StepOut:
+        return step(layout, p, s, t, t - t_prev, ctl, times, values, settings)
+
     def body(carry: tuple, t: Array) -> tuple:
         s, t_prev, alive = carry
-        out = step(layout, p, s, t, t - t_prev, ctl, times, values, settings)
+        # after a failure the rest of the chunk is discarded by the driver: skip its Newton
+        # solves (each would run to ``max_iterations`` from the frozen state)
+        out = jax.lax.cond(alive, advance, frozen, s, t, t_prev)
         ok = alive & out.converged & jnp.all(jnp.isfinite(out.state.z))
         s_new = jax.tree_util.tree_map(lambda a, b: jnp.where(ok, a, b), out.state, s)
         outs: tuple = (s_new, ok, out.iterations, out.kinetic, out.dissipated)
