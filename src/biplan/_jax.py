@@ -63,11 +63,14 @@ def _stamp_unlocked_entries(path: Path) -> None:
             atime.write_bytes(stamp)
 
 
+#: The persistent compilation cache's folder (None: off or not writable).
+CACHE_DIR: Path | None = None
 _cache = os.environ.get("BIPLAN_JAX_CACHE", str(Path.home() / ".cache" / "biplan" / "jax"))
 if _cache.lower() not in {"", "0", "off", "none"}:
     try:
         Path(_cache).mkdir(parents=True, exist_ok=True)
         jax.config.update("jax_compilation_cache_dir", _cache)
+        CACHE_DIR = Path(_cache)
         jax.config.update("jax_persistent_cache_min_compile_time_secs", 0.1)
         jax.config.update("jax_persistent_cache_min_entry_size_bytes", 0)
         # A size limit turns on JAX's file lock around every cache read and write (without it
@@ -76,11 +79,12 @@ if _cache.lower() not in {"", "0", "off", "none"}:
         jax.config.update("jax_compilation_cache_max_size", 8 * 2**30)
         _stamp_unlocked_entries(Path(_cache))
     except OSError:  # read-only home: run without the persistent cache
-        pass
+        CACHE_DIR = None
 
 import jax.numpy as jnp  # noqa: E402
 
 __all__ = [
+    "CACHE_DIR",
     "CHEAP_PIPELINE",
     "jax",
     "jnp",

@@ -28,6 +28,7 @@ import numpy as np
 
 from biplan._errors import ConfigError, check_finite
 from biplan._jax import jax, jnp
+from biplan._kernels import stored_jit
 from biplan.geometry import chain
 from biplan.geometry.tube import Tube, TubeLayout
 from biplan.laws import _kernels as law_kernels
@@ -419,24 +420,34 @@ def kernels(layout: TubeLayout) -> Kernels:
     def kin(p: ModelParams, q: Array) -> chain.Kinematics:
         return _kin(L, p, q)
 
+    def _store(fn: Any, name: str) -> Any:
+        return stored_jit(fn, name, L)
+
+    guides = functools.partial(guide_values, L)
+    gaps = functools.partial(contact_gaps, L)
+
     return Kernels(
-        energy=jax.jit(functools.partial(energy, L)),
-        fold_energies=jax.jit(functools.partial(fold_energies, L)),
-        gradient=jax.jit(jax.grad(functools.partial(energy, L), argnums=1)),
-        hessian=jax.jit(jax.hessian(functools.partial(energy, L), argnums=1)),
-        guides=jax.jit(functools.partial(guide_values, L)),
-        guide_jacobian=jax.jit(jax.jacfwd(functools.partial(guide_values, L), argnums=1)),
-        contact_gaps=jax.jit(functools.partial(contact_gaps, L)),
-        contact_jacobian=jax.jit(jax.jacfwd(functools.partial(contact_gaps, L), argnums=1)),
-        residual=jax.jit(res),
-        jacobian=jax.jit(functools.partial(kkt_jacobian, L)),
-        jacobian_autodiff=jax.jit(jax.jacfwd(res, argnums=1)),
-        state=jax.jit(functools.partial(state_data, L)),
-        lagrangian_hessian=jax.jit(lag_hess),
-        endpoint=jax.jit(lambda p, q: chain.endpoint(L, p.geometry, q)),
-        load_height=jax.jit(lh),
-        load_gradient=jax.jit(jax.grad(lh, argnums=1)),
-        kinematics=jax.jit(kin),
+        energy=_store(functools.partial(energy, L), "energy"),
+        fold_energies=_store(functools.partial(fold_energies, L), "fold_energies"),
+        gradient=_store(jax.grad(functools.partial(energy, L), argnums=1), "gradient"),
+        hessian=_store(jax.hessian(functools.partial(energy, L), argnums=1), "hessian"),
+        guides=_store(guides, "guides"),
+        guide_jacobian=_store(
+            jax.jacfwd(functools.partial(guide_values, L), argnums=1), "guide_jacobian"
+        ),
+        contact_gaps=_store(gaps, "contact_gaps"),
+        contact_jacobian=_store(
+            jax.jacfwd(functools.partial(contact_gaps, L), argnums=1), "contact_jacobian"
+        ),
+        residual=_store(res, "residual"),
+        jacobian=_store(functools.partial(kkt_jacobian, L), "jacobian"),
+        jacobian_autodiff=_store(jax.jacfwd(res, argnums=1), "jacobian_autodiff"),
+        state=_store(functools.partial(state_data, L), "state"),
+        lagrangian_hessian=_store(lag_hess, "lagrangian_hessian"),
+        endpoint=_store(lambda p, q: chain.endpoint(L, p.geometry, q), "endpoint"),
+        load_height=_store(lh, "load_height"),
+        load_gradient=_store(jax.grad(lh, argnums=1), "load_gradient"),
+        kinematics=_store(kin, "kinematics"),
     )
 
 

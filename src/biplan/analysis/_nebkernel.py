@@ -28,6 +28,7 @@ from typing import Any, NamedTuple
 
 from biplan import _linalg as linalg
 from biplan._jax import jax, jnp, kernel_options
+from biplan._kernels import stored_jit
 from biplan.assembly import ModelParams, TubeLayout, contact_gaps, energy, guide_values, sizes
 
 __all__ = ["BandOutput", "band_forces", "compiled_band", "project", "relax_band"]
@@ -244,4 +245,5 @@ def relax_band(layout: TubeLayout, p: ModelParams, q0: Array, settings: Array) -
 @functools.lru_cache(maxsize=16)
 def compiled_band(layout: TubeLayout) -> Any:
     """``jit(relax_band)`` of a layout (one compilation per number of images)."""
-    return jax.jit(functools.partial(relax_band, layout), compiler_options=kernel_options())
+    fn = functools.partial(relax_band, layout)
+    return stored_jit(fn, "band", layout, kernel_options())

@@ -34,6 +34,7 @@ import numpy as np
 from biplan import _linalg as linalg
 from biplan._errors import ConfigError, check_integer, check_range
 from biplan._jax import jax, jnp, kernel_options
+from biplan._kernels import stored_jit
 from biplan.analysis.ramp_dynamics import continue_ramp
 from biplan.assembly import (
     Load,
@@ -231,10 +232,8 @@ def _path(
 @functools.lru_cache(maxsize=16)
 def _kernel(layout: TubeLayout, free_steps: int) -> Any:
     fn = functools.partial(_path, layout, free_steps)
-    return jax.jit(
-        jax.vmap(fn, in_axes=(0, None, None, None), axis_name=LANES),
-        compiler_options=kernel_options(),
-    )
+    batched = jax.vmap(fn, in_axes=(0, None, None, None), axis_name=LANES)
+    return stored_jit(batched, "design_lanes", (layout, free_steps), kernel_options())
 
 
 def stack_params(models: Sequence[Model], batch: int) -> Any:

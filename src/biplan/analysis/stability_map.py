@@ -51,6 +51,7 @@ import numpy as np
 
 from biplan._errors import ConfigError, check_range
 from biplan._jax import jax, jnp, kernel_options
+from biplan._kernels import stored_jit
 from biplan.analysis.design_map import stack_params
 from biplan.assembly import Load, Model, TubeLayout
 from biplan.geometry import Tube
@@ -161,7 +162,8 @@ OBSERVE_LANES = 8
 
 @functools.lru_cache(maxsize=16)
 def _observe_kernel(layout: TubeLayout) -> Any:
-    return jax.jit(jax.vmap(functools.partial(_observe, layout)), compiler_options=kernel_options())
+    fn = jax.vmap(functools.partial(_observe, layout))
+    return stored_jit(fn, "stability_observe", layout, kernel_options())
 
 
 def points_per_kernel(n_points: int) -> int:

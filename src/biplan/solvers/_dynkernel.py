@@ -21,6 +21,7 @@ import functools
 from typing import Any, NamedTuple
 
 from biplan._jax import jax, jnp, kernel_options
+from biplan._kernels import stored_jit
 from biplan.assembly import (
     Load,
     ModelParams,
@@ -186,7 +187,7 @@ def chunk(
 @functools.lru_cache(maxsize=32)
 def compiled_chunk(layout: TubeLayout) -> Any:
     """The jitted :func:`chunk` of a layout."""
-    return jax.jit(functools.partial(chunk, layout), compiler_options=kernel_options())
+    return stored_jit(functools.partial(chunk, layout), "dynamics_chunk", layout, kernel_options())
 
 
 @functools.lru_cache(maxsize=32)

@@ -23,6 +23,7 @@ from typing import Any, NamedTuple
 
 from biplan import _linalg as linalg
 from biplan._jax import jax, jnp, kernel_options
+from biplan._kernels import stored_jit
 from biplan.assembly import Load, ModelParams, TubeLayout, kkt_jacobian, residual, sizes
 from biplan.solvers._damped import damped_newton
 
@@ -257,9 +258,8 @@ def path_loop(
 @functools.lru_cache(maxsize=32)
 def compiled_path(layout: TubeLayout, buffer_size: int) -> Any:
     """The jitted :func:`path_loop` of a layout and buffer size."""
-    return jax.jit(
-        functools.partial(path_loop, layout, buffer_size), compiler_options=kernel_options()
-    )
+    fn = functools.partial(path_loop, layout, buffer_size)
+    return stored_jit(fn, "path", (layout, buffer_size), kernel_options())
 
 
 @functools.lru_cache(maxsize=32)
@@ -267,6 +267,5 @@ def compiled_corrector(layout: TubeLayout) -> Any:
     """The jitted corrector, vmapped over (z0, Λ0, row_z, row_l, ρ)."""
     fn = functools.partial(corrector, layout, axis_name="lanes")
     in_axes = (None, 0, 0, None, 0, 0, 0, None, None)
-    return jax.jit(
-        jax.vmap(fn, in_axes=in_axes, axis_name="lanes"), compiler_options=kernel_options()
-    )
+    batched = jax.vmap(fn, in_axes=in_axes, axis_name="lanes")
+    return stored_jit(batched, "corrector", layout, kernel_options())

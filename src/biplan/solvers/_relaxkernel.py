@@ -31,6 +31,7 @@ from typing import Any, NamedTuple
 
 from biplan import _linalg as linalg
 from biplan._jax import jax, jnp, kernel_options
+from biplan._kernels import stored_jit
 from biplan.assembly import (
     Load,
     ModelParams,
@@ -178,6 +179,5 @@ def relax_seed(
 def compiled_relax(layout: TubeLayout) -> Any:
     """``jit(vmap(relax_seed))`` of a layout over (target, mask); built once."""
     fn = functools.partial(relax_seed, layout)
-    return jax.jit(
-        jax.vmap(fn, in_axes=(None, 0, 0, None, None, None)), compiler_options=kernel_options()
-    )
+    batched = jax.vmap(fn, in_axes=(None, 0, 0, None, None, None))
+    return stored_jit(batched, "relax", layout, kernel_options())

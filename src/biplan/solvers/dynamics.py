@@ -30,6 +30,7 @@ import numpy as np
 
 from biplan._errors import ConfigError, check_finite, check_range
 from biplan._jax import jax, jnp
+from biplan._kernels import stored_jit
 from biplan.assembly import Load, Model
 from biplan.inertia import mass_matrix
 from biplan.solvers import _dynkernel as dk
@@ -183,7 +184,7 @@ class LoadHistory:
 
 @functools.lru_cache(maxsize=16)
 def _mass_kernel(layout: Any) -> Any:
-    return jax.jit(functools.partial(mass_matrix, layout))
+    return stored_jit(functools.partial(mass_matrix, layout), "mass_matrix", layout)
 
 
 def mass_matrix_at(model: Model, q: np.ndarray) -> np.ndarray:

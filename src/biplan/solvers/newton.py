@@ -19,6 +19,7 @@ import numpy as np
 from biplan import _linalg as linalg
 from biplan._errors import ConfigError, ConvergenceError, check_integer, check_range
 from biplan._jax import jax, jnp
+from biplan._kernels import stored_jit
 from biplan.assembly import Load, Model, StateData, TubeLayout, kernels
 
 __all__ = ["Newton", "Solution", "Status", "relaxed_reference", "solve_equilibrium"]
@@ -402,7 +403,8 @@ def newton_loop(
 @functools.lru_cache(maxsize=64)
 def compiled_loop(layout: TubeLayout, free_steps: int = 0) -> Any:
     """The jitted Newton loop of a layout and watchdog length (built once)."""
-    return jax.jit(functools.partial(newton_loop, layout, free_steps=free_steps))
+    fn = functools.partial(newton_loop, layout, free_steps=free_steps)
+    return stored_jit(fn, "newton_loop", (layout, free_steps))
 
 
 @dataclass(frozen=True)

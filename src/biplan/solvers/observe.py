@@ -29,6 +29,7 @@ import numpy as np
 
 from biplan import _linalg as linalg
 from biplan._jax import jax, jnp, kernel_options
+from biplan._kernels import stored_jit
 from biplan.assembly import (
     Load,
     ModelParams,
@@ -172,7 +173,7 @@ def observe(
 def _batched(layout: TubeLayout) -> Any:
     weak = layout.options.weak_contacts_active
     fn = functools.partial(observe, layout, weak_contacts=weak)
-    return jax.jit(jax.vmap(fn, in_axes=(None, 0, 0)), compiler_options=kernel_options())
+    return stored_jit(jax.vmap(fn, in_axes=(None, 0, 0)), "observe", layout, kernel_options())
 
 
 def observe_batch(layout: TubeLayout, params: ModelParams, z: Array, loads: Load) -> Observation:

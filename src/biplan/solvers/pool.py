@@ -25,6 +25,7 @@ import functools
 from typing import Any, NamedTuple
 
 from biplan._jax import jax, jnp, kernel_options
+from biplan._kernels import stored_jit
 from biplan.assembly import Load, TubeLayout
 from biplan.solvers.newton import newton_machine
 
@@ -135,6 +136,5 @@ def newton_pool(
 @functools.lru_cache(maxsize=16)
 def pool_kernel(layout: TubeLayout, lanes: int) -> Any:
     """The jitted :func:`newton_pool` of a layout and lane count (built once)."""
-    return jax.jit(
-        functools.partial(newton_pool, layout, lanes=lanes), compiler_options=kernel_options()
-    )
+    fn = functools.partial(newton_pool, layout, lanes=lanes)
+    return stored_jit(fn, "newton_pool", (layout, lanes), kernel_options())

@@ -1,0 +1,217 @@
+"""Stored kernels: traced once, reused by every later process (``jax.export``).
+
+JAX's persistent compilation cache (:mod:`biplan._jax`) skips XLA's compile on a warm start,
+but every new process still *traces and lowers* each kernel to find its cache key: for
+biplan's large kernels that is most of a warm start (a warm ``biplan demo`` spent 28 of its
+49 s tracing and lowering; docs/performance.md, "Kernel store").
+
+:func:`stored_jit` is ``jax.jit`` plus a store of the traced kernels. On its first call for an
+argument signature (pytree structure, shapes and dtypes) a kernel is exported
+(:func:`jax.export.export`: traced and lowered to StableHLO once) and written to
+``$BIPLAN_JAX_CACHE/kernels``; a later process (a new session, a Dask worker, the other test
+worker) reads it back and only compiles it — a hit in the persistent compilation cache when
+the cache is warm. The arithmetic is the kernel's own: results equal ``jax.jit``'s.
+
+An entry is keyed by the kernel's name and static key (the tube layout, …), the signature,
+the JAX and jaxlib versions, the backend, and a fingerprint of biplan's own source files, so
+an edited or upgraded biplan never reads a stale kernel. The store follows the compilation
+cache: ``BIPLAN_JAX_CACHE=off`` turns both off; ``BIPLAN_KERNEL_STORE=off`` turns off only
+the store. A kernel that cannot be exported (or an unreadable entry) falls back to plain
+``jax.jit`` (or is exported again), so the store can only save time.
+"""
+
+from __future__ import annotations
+
+import functools
+import hashlib
+import os
+import pickle
+import tempfile
+import threading
+from collections.abc import Callable
+from pathlib import Path
+from typing import Any
+
+from biplan import _jax
+from biplan._jax import jax, jnp
+
+__all__ = ["StoredKernel", "kernel_store", "stored_jit"]
+
+_OFF = {"", "0", "off", "none", "false"}
+#: Bumped when the entry format changes.
+_FORMAT = 1
+
+
+def kernel_store() -> Path | None:
+    """Folder of the stored kernels, or None when the store is off (read at each lookup)."""
+    if os.environ.get("BIPLAN_KERNEL_STORE", "on").lower() in _OFF:
+        return None
+    if _jax.CACHE_DIR is None:
+        return None
+    return _jax.CACHE_DIR / "kernels"
+
+
+@functools.cache
+def _source_fingerprint() -> str:
+    """sha256 of every ``.py`` file of the installed biplan package (path and bytes)."""
+    root = Path(__file__).resolve().parent
+    digest = hashlib.sha256()
+    for path in sorted(root.rglob("*.py")):
+        digest.update(str(path.relative_to(root)).encode())
+        digest.update(path.read_bytes())
+    return digest.hexdigest()
+
+
+def _environment() -> str:
+    import jaxlib
+
+    return "|".join(
+        [
+            str(_FORMAT),
+            _source_fingerprint(),
+            jax.__version__,
+            jaxlib.__version__,
+            jax.default_backend(),
+            str(jnp.asarray(0.0).dtype),  # float64 on
+        ]
+    )
+
+
+class StoredKernel:
+    """A jitted function whose traced form is stored on disk (:func:`stored_jit`).
+
+    Call it like the ``jax.jit`` of ``fun``. Arguments are pytrees of arrays (NumPy or JAX)
+    and scalars; every leaf is traced (no static arguments: bind those with
+    :func:`functools.partial` and name them in ``key``).
+    """
+
+    def __init__(
+        self,
+        fun: Callable[..., Any],
+        name: str,
+        key: Any = None,
+        compiler_options: dict[str, Any] | None = None,
+    ) -> None:
+        self._fun = fun
+        self._name = name
+        self._key = repr(key)
+        self._options = compiler_options
+        self._jit = jax.jit(fun, compiler_options=compiler_options)
+        self._calls: dict[Any, tuple[Callable[..., Any], Any]] = {}
+        self._lock = threading.Lock()
+
+    def __repr__(self) -> str:
+        return f"StoredKernel({self._name}, {len(self._calls)} signature(s))"
+
+    def _cache_size(self) -> int:
+        """Signatures built in this process (as ``jax.jit``'s ``_cache_size``)."""
+        return len(self._calls)
+
+    def clear_cache(self) -> None:
+        """Forget this process's signatures (as ``jax.jit``'s; the store is kept)."""
+        with self._lock:
+            self._calls.clear()
+        self._jit.clear_cache()
+
+    def __call__(self, *args: Any) -> Any:
+        leaves, tree = jax.tree_util.tree_flatten(args)
+        if any(isinstance(x, jax.core.Tracer) for x in leaves):  # inside a transformation
+            return self._jit(*args)
+        leaves = [x if isinstance(x, jax.Array) else jnp.asarray(x) for x in leaves]
+        signature = (tree, tuple((x.shape, x.dtype) for x in leaves))
+        entry = self._calls.get(signature)
+        if entry is None:
+            with self._lock:
+                entry = self._calls.get(signature)
+                if entry is None:
+                    entry = self._calls[signature] = self._build(tree, leaves)
+        call, out_tree = entry
+        if out_tree is None:  # not exportable: plain jit
+            return call(*args)
+        return jax.tree_util.tree_unflatten(out_tree, call(*leaves))
+
+    # --- building a signature's callable --------------------------------------------------
+    def _build(self, tree: Any, leaves: list[Any]) -> tuple[Callable[..., Any], Any]:
+        store = kernel_store()
+        if store is None:
+            return self._jit, None
+        avals = [jax.ShapeDtypeStruct(x.shape, x.dtype) for x in leaves]
+        text = "|".join([_environment(), self._name, self._key, str(tree), repr(avals)])
+        file = store / f"{self._name}-{hashlib.sha256(text.encode()).hexdigest()[:32]}.kernel"
+        loaded = _read(file)
+        if loaded is None:
+            loaded = self._export(tree, avals)
+            if loaded is None:
+                return self._jit, None
+            _write(file, loaded)
+        blob, out_tree = loaded
+        try:
+            exported = jax.export.deserialize(bytearray(blob))
+        except Exception:
+            again = self._export(tree, avals)
+            if again is None:
+                return self._jit, None
+            blob, out_tree = again
+            _write(file, again)
+            exported = jax.export.deserialize(bytearray(blob))
+        return jax.jit(exported.call, compiler_options=self._options), out_tree
+
+    def _export(self, tree: Any, avals: list[Any]) -> tuple[bytes, Any] | None:
+        out_tree: list[Any] = []
+
+        def flat(*leaves: Any) -> Any:
+            out, treedef = jax.tree_util.tree_flatten(
+                self._fun(*jax.tree_util.tree_unflatten(tree, leaves))
+            )
+            out_tree.append(treedef)
+            return out
+
+        try:
+            exported = jax.export.export(jax.jit(flat))(*avals)
+            return bytes(exported.serialize()), out_tree[-1]
+        except Exception:
+            return None
+
+
+def _read(file: Path) -> tuple[bytes, Any] | None:
+    try:
+        with open(file, "rb") as f:
+            blob, out_tree = pickle.load(f)
+    except Exception:
+        return None
+    return blob, out_tree
+
+
+def _write(file: Path, entry: tuple[bytes, Any]) -> None:
+    """Write atomically (another process may read the same entry meanwhile)."""
+    try:
+        file.parent.mkdir(parents=True, exist_ok=True)
+        fd, tmp = tempfile.mkstemp(dir=file.parent, suffix=".tmp")
+        with os.fdopen(fd, "wb") as f:
+            pickle.dump(entry, f)
+        os.replace(tmp, file)
+    except OSError:  # read-only cache: run without storing
+        pass
+
+
+def stored_jit(
+    fun: Callable[..., Any],
+    name: str,
+    key: Any = None,
+    compiler_options: dict[str, Any] | None = None,
+) -> StoredKernel:
+    """``jax.jit(fun, compiler_options=…)`` whose traced kernels are stored on disk.
+
+    Parameters
+    ----------
+    fun : callable
+        The kernel; every argument is traced.
+    name : str
+        Kernel name (the entries' file prefix).
+    key : object
+        What else determines the traced function — whatever ``fun`` closes over (a tube
+        layout, a lane count); its ``repr`` enters the entry's key and must be deterministic.
+    compiler_options : dict, optional
+        As ``jax.jit``'s.
+    """
+    return StoredKernel(fun, name, key, compiler_options)
