@@ -31,6 +31,7 @@ the solvers' kernels call inside their own, keep the default too.)
 from __future__ import annotations
 
 import os
+from collections.abc import Callable
 from pathlib import Path
 
 _ON = {"on", "1", "true"}
@@ -93,6 +94,10 @@ __all__ = [
     "release_compiled_kernels",
 ]
 
+#: Called by :func:`release_compiled_kernels` after ``jax.clear_caches()``: modules that hold
+#: compiled executables themselves register a function here that drops them.
+CLEAR_HOOKS: list[Callable[[], None]] = []
+
 #: XLA debug options of LLVM's cheap pipeline (``BIPLAN_FAST_COMPILE=on``).
 CHEAP_PIPELINE: dict[str, int | bool] = {
     "xla_backend_optimization_level": 0,
@@ -151,5 +156,7 @@ def release_compiled_kernels(fraction: float = 0.5) -> bool:
     import gc
 
     jax.clear_caches()
+    for hook in CLEAR_HOOKS:  # executables held outside JAX's caches (biplan._kernels)
+        hook()
     gc.collect()
     return True

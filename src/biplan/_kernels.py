@@ -28,9 +28,12 @@ import os
 import pickle
 import tempfile
 import threading
+import weakref
 from collections.abc import Callable
 from pathlib import Path
 from typing import Any
+
+import numpy as np
 
 from biplan import _jax
 from biplan._jax import jax, jnp
@@ -96,16 +99,17 @@ class StoredKernel:
         self._name = name
         self._key = repr(key)
         self._options = compiler_options
-        self._jit = jax.jit(fun, compiler_options=compiler_options)
-        self._calls: dict[Any, tuple[Callable[..., Any], Any]] = {}
+        self._jit: Any = jax.jit(fun, compiler_options=compiler_options)
+        self._calls: dict[Any, tuple[Any, Any]] = {}
         self._lock = threading.Lock()
 
     def __repr__(self) -> str:
         return f"StoredKernel({self._name}, {len(self._calls)} signature(s))"
 
     def _cache_size(self) -> int:
-        """Signatures built in this process (as ``jax.jit``'s ``_cache_size``)."""
-        return len(self._calls)
+        """Compilations in this process (as ``jax.jit``'s ``_cache_size``)."""
+        stored = [out_tree is not None for _, out_tree in self._calls.values()]
+        return sum(stored) + (0 if all(stored) else int(self._jit._cache_size()))
 
     def clear_cache(self) -> None:
         """Forget this process's signatures (as ``jax.jit``'s; the store is kept)."""
@@ -117,7 +121,7 @@ class StoredKernel:
         leaves, tree = jax.tree_util.tree_flatten(args)
         if any(isinstance(x, jax.core.Tracer) for x in leaves):  # inside a transformation
             return self._jit(*args)
-        leaves = [x if isinstance(x, jax.Array) else jnp.asarray(x) for x in leaves]
+        leaves = [_as_array(x) for x in leaves]
         signature = (tree, tuple((x.shape, x.dtype) for x in leaves))
         entry = self._calls.get(signature)
         if entry is None:
@@ -154,7 +158,10 @@ class StoredKernel:
             blob, out_tree = again
             _write(file, again)
             exported = jax.export.deserialize(bytearray(blob))
-        return jax.jit(exported.call, compiler_options=self._options), out_tree
+        # compiled ahead of time for the signature: one executable whatever the arguments'
+        # weak types and placement (``jax.jit`` would compile again for a committed argument)
+        call = jax.jit(exported.call, compiler_options=self._options).lower(*avals).compile()
+        return call, out_tree
 
     def _export(self, tree: Any, avals: list[Any]) -> tuple[bytes, Any] | None:
         out_tree: list[Any] = []
@@ -171,6 +178,11 @@ class StoredKernel:
             return bytes(exported.serialize()), out_tree[-1]
         except Exception:
             return None
+
+
+def _as_array(x: Any) -> Any:
+    """A leaf as a JAX array of its NumPy dtype (a Python float is float64, not weak)."""
+    return x if isinstance(x, jax.Array) else jnp.asarray(np.asarray(x))
 
 
 def _read(file: Path) -> tuple[bytes, Any] | None:
@@ -194,6 +206,18 @@ def _write(file: Path, entry: tuple[bytes, Any]) -> None:
         pass
 
 
+_KERNELS: weakref.WeakSet[StoredKernel] = weakref.WeakSet()
+
+
+def _forget_compiled() -> None:
+    """Drop every stored kernel's executables (they are rebuilt from the store on demand)."""
+    for kernel in list(_KERNELS):
+        kernel.clear_cache()
+
+
+_jax.CLEAR_HOOKS.append(_forget_compiled)
+
+
 def stored_jit(
     fun: Callable[..., Any],
     name: str,
@@ -214,4 +238,6 @@ def stored_jit(
     compiler_options : dict, optional
         As ``jax.jit``'s.
     """
-    return StoredKernel(fun, name, key, compiler_options)
+    kernel = StoredKernel(fun, name, key, compiler_options)
+    _KERNELS.add(kernel)
+    return kernel

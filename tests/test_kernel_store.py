@@ -1,0 +1,158 @@
+"""The kernel store (``biplan._kernels``): kernels exported once, reloaded without tracing."""
+
+from __future__ import annotations
+
+import functools
+import os
+import subprocess
+import sys
+from pathlib import Path
+from typing import NamedTuple
+
+import numpy as np
+import pytest
+
+import biplan
+from biplan import _jax, _kernels
+from biplan._jax import jax, jnp
+from biplan._kernels import StoredKernel, stored_jit
+from biplan.assembly import Load, residual
+
+
+class Pair(NamedTuple):
+    value: jax.Array
+    slope: jax.Array
+
+
+def _cubic(params: dict, x: jax.Array) -> Pair:
+    """A pytree in, a NamedTuple out, a loop inside."""
+
+    def body(i: jax.Array, y: jax.Array) -> jax.Array:
+        return y - (y**3 - params["c"]) / (3 * y**2)
+
+    y = jax.lax.fori_loop(0, 30, body, x)
+    return Pair(y, 3 * y**2)
+
+
+@pytest.fixture
+def store(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> Path:
+    monkeypatch.setattr(_jax, "CACHE_DIR", tmp_path)
+    monkeypatch.delenv("BIPLAN_KERNEL_STORE", raising=False)
+    return tmp_path / "kernels"
+
+
+def _refuse_export(*_args: object) -> None:
+    raise AssertionError("traced again: the stored kernel was not used")
+
+
+def test_a_stored_kernel_equals_jit_and_is_read_back(store, monkeypatch) -> None:
+    params, x = {"c": jnp.asarray(2.0)}, np.linspace(1.0, 3.0, 4)
+    first = stored_jit(_cubic, "cubic", key="k1")
+    out = first(params, x)
+    reference = jax.jit(_cubic)(params, x)
+    assert isinstance(out, Pair)
+    np.testing.assert_array_equal(out.value, reference.value)
+    np.testing.assert_array_equal(out.slope, reference.slope)
+    np.testing.assert_allclose(out.value, 2.0 ** (1 / 3), rtol=1e-15)
+    assert len(list(store.glob("cubic-*.kernel"))) == 1
+    # a new kernel object (a new process) reads the entry instead of tracing
+    monkeypatch.setattr(StoredKernel, "_export", _refuse_export)
+    again = stored_jit(_cubic, "cubic", key="k1")
+    np.testing.assert_array_equal(again(params, x).value, reference.value)
+    assert again._cache_size() == 1
+    # another shape, another key: new entries
+    monkeypatch.undo()
+    monkeypatch.setattr(_jax, "CACHE_DIR", store.parent)
+    stored_jit(_cubic, "cubic", key="k1")(params, x[:2])
+    stored_jit(_cubic, "cubic", key="k2")(params, x)
+    assert len(list(store.glob("cubic-*.kernel"))) == 3
+
+
+def test_an_edited_biplan_never_reads_a_stale_kernel(store, monkeypatch) -> None:
+    params, x = {"c": jnp.asarray(2.0)}, np.ones(3)
+    stored_jit(_cubic, "cubic")(params, x)
+    monkeypatch.setattr(_kernels, "_source_fingerprint", lambda: "edited")
+    stored_jit(_cubic, "cubic")(params, x)
+    assert len(list(store.glob("cubic-*.kernel"))) == 2
+
+
+def test_a_damaged_entry_is_exported_again(store) -> None:
+    params, x = {"c": jnp.asarray(5.0)}, np.ones(2)
+    stored_jit(_cubic, "cubic")(params, x)
+    (entry,) = store.glob("cubic-*.kernel")
+    entry.write_bytes(b"truncated")
+    out = stored_jit(_cubic, "cubic")(params, x)
+    np.testing.assert_allclose(out.value, 5.0 ** (1 / 3), rtol=1e-15)
+    assert entry.stat().st_size > 100  # rewritten
+
+
+def test_store_off_is_plain_jit(store, monkeypatch) -> None:
+    monkeypatch.setenv("BIPLAN_KERNEL_STORE", "off")
+    params, x = {"c": jnp.asarray(2.0)}, np.ones(2)
+    out = stored_jit(_cubic, "cubic")(params, x)
+    np.testing.assert_allclose(out.value, 2.0 ** (1 / 3), rtol=1e-15)
+    assert not store.exists()
+
+
+def test_a_stored_kernel_inside_a_transformation_traces_through(store) -> None:
+    """Under grad/vmap the kernel is traced as the plain jit (the exported form is not
+    differentiable); the derivative matches the closed form d(c^(1/3))/dc."""
+    kernel = stored_jit(_cubic, "cubic")
+    grad = jax.grad(lambda c: kernel({"c": c}, jnp.ones(()))[0])(8.0)
+    assert float(grad) == pytest.approx(1 / 12, rel=1e-12)
+
+
+def test_a_model_kernel_equals_the_jit_of_its_function(model1) -> None:
+    """A tube kernel through the store returns jax.jit's numbers bit for bit."""
+    model = model1
+    z = np.asarray(model.pack(model.zeros())) + 0.01
+    load = Load.of_force(0.3).for_kernel()
+    stored = model.kernels.residual(model.params, jnp.asarray(z), load)
+    plain = jax.jit(functools.partial(residual, model.layout))(model.params, jnp.asarray(z), load)
+    np.testing.assert_array_equal(np.asarray(stored), np.asarray(plain))
+
+
+SCRIPT = """
+import numpy as np
+from biplan import _kernels
+from biplan._jax import jnp
+def f(p, x):
+    return {"y": jnp.sin(x) * p}
+if {refuse}:
+    def refuse(*_):
+        raise SystemExit("traced again")
+    _kernels.StoredKernel._export = refuse
+print(float(_kernels.stored_jit(f, "sine")(2.0, np.ones(3))["y"][0]))
+"""
+
+
+def test_a_later_process_reads_the_kernel_without_tracing(tmp_path: Path) -> None:
+    env = {**os.environ, "BIPLAN_JAX_CACHE": str(tmp_path)}
+    env.pop("BIPLAN_KERNEL_STORE", None)
+    outs = []
+    for refuse in (False, True):
+        run = subprocess.run(
+            [sys.executable, "-c", SCRIPT.replace("{refuse}", str(refuse))],
+            env=env,
+            capture_output=True,
+            text=True,
+            timeout=300,
+        )
+        assert run.returncode == 0, run.stderr
+        outs.append(float(run.stdout.split()[-1]))
+    assert outs[0] == outs[1] == pytest.approx(2 * np.sin(1.0), rel=1e-15)
+
+
+def test_release_compiled_kernels_drops_the_stored_executables(store) -> None:
+    """The memory-map guard (``release_compiled_kernels``) reaches the executables that
+    stored kernels hold; the next call rebuilds them from the store."""
+    from biplan._jax import release_compiled_kernels
+
+    params, x = {"c": jnp.asarray(3.0)}, np.ones(2)
+    kernel = stored_jit(_cubic, "cubic")
+    kernel(params, x)
+    assert kernel._cache_size() == 1
+    assert release_compiled_kernels(0.0)
+    assert kernel._cache_size() == 0
+    np.testing.assert_allclose(kernel(params, x).value, 3.0 ** (1 / 3), rtol=1e-15)
+    assert kernel._cache_size() == 1
