@@ -12,7 +12,6 @@ from typing import NamedTuple
 import numpy as np
 import pytest
 
-import biplan
 from biplan import _jax, _kernels
 from biplan._jax import jax, jnp
 from biplan._kernels import StoredKernel, stored_jit

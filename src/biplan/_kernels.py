@@ -17,7 +17,9 @@ the JAX and jaxlib versions, the backend, and a fingerprint of biplan's own sour
 an edited or upgraded biplan never reads a stale kernel. The store follows the compilation
 cache: ``BIPLAN_JAX_CACHE=off`` turns both off; ``BIPLAN_KERNEL_STORE=off`` turns off only
 the store. A kernel that cannot be exported (or an unreadable entry) falls back to plain
-``jax.jit`` (or is exported again), so the store can only save time.
+``jax.jit`` (or is exported again), so the store can only save time. Entries are pickles (the
+serialised module and the output's pytree structure): trust the folder as you trust the
+compilation cache beside it, which holds executable code.
 """
 
 from __future__ import annotations
