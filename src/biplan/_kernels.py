@@ -3,7 +3,7 @@
 JAX's persistent compilation cache (:mod:`biplan._jax`) skips XLA's compile on a warm start,
 but every new process still *traces and lowers* each kernel to find its cache key: for
 biplan's large kernels that is most of a warm start (a warm ``biplan demo`` spent 28 of its
-49 s tracing and lowering; docs/performance.md, "Kernel store").
+49 s tracing and lowering; docs/performance.md, "Warm starts: the kernel store").
 
 :func:`stored_jit` is ``jax.jit`` plus a store of the traced kernels. On its first call for an
 argument signature (pytree structure, shapes and dtypes) a kernel is exported
@@ -42,7 +42,7 @@ from biplan._jax import jax, jnp
 
 __all__ = ["StoredKernel", "kernel_store", "stored_jit"]
 
-_OFF = {"", "0", "off", "none", "false"}
+_OFF = {"", "0", "off", "none", "false"}  # as BIPLAN_JAX_CACHE, plus "false"
 #: Bumped when the entry format changes.
 _FORMAT = 1
 
@@ -145,21 +145,13 @@ class StoredKernel:
         text = "|".join([_environment(), self._name, self._key, str(tree), repr(avals)])
         file = store / f"{self._name}-{hashlib.sha256(text.encode()).hexdigest()[:32]}.kernel"
         loaded = _read(file)
-        if loaded is None:
-            loaded = self._export(tree, avals)
-            if loaded is None:
+        if loaded is None:  # missing, damaged or unreadable: trace and store
+            made = self._export(tree, avals)
+            if made is None:
                 return self._jit, None
-            _write(file, loaded)
-        blob, out_tree = loaded
-        try:
-            exported = jax.export.deserialize(bytearray(blob))
-        except Exception:
-            again = self._export(tree, avals)
-            if again is None:
-                return self._jit, None
-            blob, out_tree = again
-            _write(file, again)
-            exported = jax.export.deserialize(bytearray(blob))
+            _write(file, made)
+            loaded = jax.export.deserialize(bytearray(made[0])), made[1]
+        exported, out_tree = loaded
         # compiled ahead of time for the signature: one executable whatever the arguments'
         # weak types and placement (``jax.jit`` would compile again for a committed argument)
         call = jax.jit(exported.call, compiler_options=self._options).lower(*avals).compile()
@@ -187,13 +179,14 @@ def _as_array(x: Any) -> Any:
     return x if isinstance(x, jax.Array) else jnp.asarray(np.asarray(x))
 
 
-def _read(file: Path) -> tuple[bytes, Any] | None:
+def _read(file: Path) -> tuple[Any, Any] | None:
+    """The stored (exported kernel, output pytree structure), or None."""
     try:
         with open(file, "rb") as f:
             blob, out_tree = pickle.load(f)
+        return jax.export.deserialize(bytearray(blob)), out_tree
     except Exception:
         return None
-    return blob, out_tree
 
 
 def _write(file: Path, entry: tuple[bytes, Any]) -> None:
