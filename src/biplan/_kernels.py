@@ -154,8 +154,8 @@ class StoredKernel:
         exported, out_tree = loaded
         # compiled ahead of time for the signature: one executable whatever the arguments'
         # weak types and placement (``jax.jit`` would compile again for a committed argument)
-        call = jax.jit(exported.call, compiler_options=self._options).lower(*avals).compile()
-        return call, out_tree
+        call = jax.jit(_named(exported.call, self._name), compiler_options=self._options)
+        return call.lower(*avals).compile(), out_tree
 
     def _export(self, tree: Any, avals: list[Any]) -> tuple[bytes, Any] | None:
         out_tree: list[Any] = []
@@ -172,6 +172,17 @@ class StoredKernel:
             return bytes(exported.serialize()), out_tree[-1]
         except Exception:
             return None
+
+
+def _named(call: Callable[..., Any], name: str) -> Callable[..., Any]:
+    """``call`` under the kernel's name: JAX's compile logs and profiles then say
+    ``jit(<name>)`` rather than ``jit(call)`` for every stored kernel."""
+
+    def kernel(*args: Any) -> Any:
+        return call(*args)
+
+    kernel.__name__ = kernel.__qualname__ = name
+    return kernel
 
 
 def _as_array(x: Any) -> Any:
