@@ -478,11 +478,32 @@ def test_watchdog_reaches_the_same_equilibrium_with_fewer_residuals(model6, refe
     out = {}
     for free in (0, 8):
         settings = Newton(max_backtracks=12, free_steps=free).settings()
-        out[free] = compiled_loop(model6.layout, free)(model6.params, z0, load, settings)
+        out[free] = compiled_loop(model6.layout)(model6.params, z0, load, settings)
         assert int(out[free].status) == Status.CONVERGED.value
     n = model6.n_coordinates
     assert np.allclose(out[8].z[:n], out[0].z[:n], atol=1e-9)
     assert int(out[8].evals) < int(out[0].evals)
+
+
+def test_traced_watchdog_of_length_zero_takes_the_plain_iterates(model1):
+    """The scalar loop traces the watchdog length (one kernel for every ``Newton``); with
+    length 0 it takes exactly the iterates of the loop compiled without a watchdog."""
+    import functools
+
+    from biplan._jax import jax, jnp
+    from biplan.solvers.newton import compiled_loop, newton_loop
+
+    plain = jax.jit(functools.partial(newton_loop, model1.layout, free_steps=0))
+    rng = np.random.default_rng(5)
+    load = Load(jnp.asarray(0.0), jnp.asarray(0.8), jnp.asarray(1.0))
+    settings = Newton(max_steps=40, free_steps=0).settings()
+    for _ in range(4):
+        z0 = jnp.asarray(model1.pack(rng.normal(scale=0.3, size=model1.n_coordinates)))
+        a = compiled_loop(model1.layout)(model1.params, z0, load, settings)
+        b = plain(model1.params, z0, load, settings)
+        for field in ("z", "status", "steps", "evals"):
+            np.testing.assert_array_equal(np.asarray(getattr(a, field)),
+                                          np.asarray(getattr(b, field)))  # fmt: skip
 
 
 def test_watchdog_length_is_checked():

@@ -13,7 +13,7 @@ import numpy as np
 import pytest
 
 from biplan import _jax, _kernels
-from biplan._jax import jax, jnp
+from biplan._jax import jax, jnp, kernel_options
 from biplan._kernels import StoredKernel, stored_jit
 from biplan.assembly import Load, residual
 
@@ -102,12 +102,15 @@ def test_a_stored_kernel_inside_a_transformation_traces_through(store) -> None:
 
 
 def test_a_model_kernel_equals_the_jit_of_its_function(model1) -> None:
-    """A tube kernel through the store returns jax.jit's numbers bit for bit."""
+    """A tube kernel through the store returns the numbers of jax.jit (same compiler options)
+    bit for bit."""
     model = model1
     z = np.asarray(model.pack(model.zeros())) + 0.01
     load = Load.of_force(0.3).for_kernel()
     stored = model.kernels.residual(model.params, jnp.asarray(z), load)
-    plain = jax.jit(functools.partial(residual, model.layout))(model.params, jnp.asarray(z), load)
+    plain = jax.jit(functools.partial(residual, model.layout), compiler_options=kernel_options())(
+        model.params, jnp.asarray(z), load
+    )
     np.testing.assert_array_equal(np.asarray(stored), np.asarray(plain))
 
 
@@ -140,6 +143,39 @@ def test_a_later_process_reads_the_kernel_without_tracing(tmp_path: Path) -> Non
         assert run.returncode == 0, run.stderr
         outs.append(float(run.stdout.split()[-1]))
     assert outs[0] == outs[1] == pytest.approx(2 * np.sin(1.0), rel=1e-15)
+
+
+RACE = """
+import sys, time
+from biplan import _kernels
+from biplan._jax import jnp
+def f(x):
+    print("traced", file=sys.stderr, flush=True)
+    time.sleep(2.0)  # a slow trace: without the lock both processes would trace
+    return jnp.cos(x)
+print(float(_kernels.stored_jit(f, "slow")(jnp.zeros(2))[0]))
+"""
+
+
+def test_processes_building_the_same_kernel_trace_it_once(tmp_path: Path) -> None:
+    """Two processes that need the same kernel at the same time: one traces and compiles,
+    the other waits on the entry's lock and reads what the first stored."""
+    env = {**os.environ, "BIPLAN_JAX_CACHE": str(tmp_path)}
+    env.pop("BIPLAN_KERNEL_STORE", None)
+    procs = [
+        subprocess.Popen(
+            [sys.executable, "-c", RACE],
+            env=env,
+            stdout=subprocess.PIPE,
+            stderr=subprocess.PIPE,
+            text=True,
+        )
+        for _ in range(2)
+    ]
+    outs = [p.communicate(timeout=300) for p in procs]
+    assert all(p.returncode == 0 for p in procs), [err for _, err in outs]
+    assert [float(out.split()[-1]) for out, _ in outs] == [1.0, 1.0]
+    assert sum(err.count("traced") for _, err in outs) == 1
 
 
 def test_release_compiled_kernels_drops_the_stored_executables(store) -> None:

@@ -24,6 +24,7 @@ compilation cache beside it, which holds executable code.
 
 from __future__ import annotations
 
+import contextlib
 import functools
 import hashlib
 import os
@@ -31,7 +32,7 @@ import pickle
 import tempfile
 import threading
 import weakref
-from collections.abc import Callable
+from collections.abc import Callable, Iterator
 from pathlib import Path
 from typing import Any
 
@@ -102,6 +103,9 @@ class StoredKernel:
         self._key = repr(key)
         self._options = compiler_options
         self._jit: Any = jax.jit(fun, compiler_options=compiler_options)
+        # JAX takes compiler options only on a top-level jit: inside another kernel's trace
+        # this one is inlined as a plain jit
+        self._nested: Any = jax.jit(fun) if compiler_options else self._jit
         self._calls: dict[Any, tuple[Any, Any]] = {}
         self._lock = threading.Lock()
 
@@ -118,11 +122,12 @@ class StoredKernel:
         with self._lock:
             self._calls.clear()
         self._jit.clear_cache()
+        self._nested.clear_cache()
 
     def __call__(self, *args: Any) -> Any:
         leaves, tree = jax.tree_util.tree_flatten(args)
         if any(isinstance(x, jax.core.Tracer) for x in leaves):  # inside a transformation
-            return self._jit(*args)
+            return self._nested(*args)
         leaves = [_as_array(x) for x in leaves]
         signature = (tree, tuple((x.shape, x.dtype) for x in leaves))
         entry = self._calls.get(signature)
@@ -144,18 +149,22 @@ class StoredKernel:
         avals = [jax.ShapeDtypeStruct(x.shape, x.dtype) for x in leaves]
         text = "|".join([_environment(), self._name, self._key, str(tree), repr(avals)])
         file = store / f"{self._name}-{hashlib.sha256(text.encode()).hexdigest()[:32]}.kernel"
-        loaded = _read(file)
-        if loaded is None:  # missing, damaged or unreadable: trace and store
-            made = self._export(tree, avals)
-            if made is None:
-                return self._jit, None
-            _write(file, made)
-            loaded = jax.export.deserialize(bytearray(made[0])), made[1]
-        exported, out_tree = loaded
-        # compiled ahead of time for the signature: one executable whatever the arguments'
-        # weak types and placement (``jax.jit`` would compile again for a committed argument)
-        call = jax.jit(_named(exported.call, self._name), compiler_options=self._options)
-        return call.lower(*avals).compile(), out_tree
+        # One process at a time builds an entry: another that needs the same kernel meanwhile
+        # (a test worker, a Dask worker) waits, then reads the entry and finds the executable
+        # in the persistent compilation cache instead of tracing and compiling it again.
+        with _entry_lock(file):
+            loaded = _read(file)
+            if loaded is None:  # missing, damaged or unreadable: trace and store
+                made = self._export(tree, avals)
+                if made is None:
+                    return self._jit, None
+                _write(file, made)
+                loaded = jax.export.deserialize(bytearray(made[0])), made[1]
+            exported, out_tree = loaded
+            # compiled ahead of time for the signature: one executable whatever the arguments'
+            # weak types and placement (``jax.jit`` compiles again for a committed argument)
+            call = jax.jit(_named(exported.call, self._name), compiler_options=self._options)
+            return call.lower(*avals).compile(), out_tree
 
     def _export(self, tree: Any, avals: list[Any]) -> tuple[bytes, Any] | None:
         out_tree: list[Any] = []
@@ -188,6 +197,27 @@ def _named(call: Callable[..., Any], name: str) -> Callable[..., Any]:
 def _as_array(x: Any) -> Any:
     """A leaf as a JAX array of its NumPy dtype (a Python float is float64, not weak)."""
     return x if isinstance(x, jax.Array) else jnp.asarray(np.asarray(x))
+
+
+@contextlib.contextmanager
+def _entry_lock(file: Path) -> Iterator[None]:
+    """An exclusive lock on ``<entry>.lock`` across processes (``flock``; released when the
+    holder exits, even by a crash). Where it cannot be had (no ``fcntl``, a read-only store)
+    the build goes on unlocked, as without the store."""
+    try:
+        import fcntl
+
+        file.parent.mkdir(parents=True, exist_ok=True)
+        fd = os.open(file.with_suffix(".lock"), os.O_RDWR | os.O_CREAT, 0o644)
+    except (ImportError, OSError):
+        yield
+        return
+    try:
+        with contextlib.suppress(OSError):
+            fcntl.flock(fd, fcntl.LOCK_EX)
+        yield
+    finally:
+        os.close(fd)  # releases the lock
 
 
 def _read(file: Path) -> tuple[Any, Any] | None:

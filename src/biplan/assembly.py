@@ -27,7 +27,7 @@ from typing import Any, NamedTuple
 import numpy as np
 
 from biplan._errors import ConfigError, check_finite
-from biplan._jax import jax, jnp
+from biplan._jax import jax, jnp, kernel_options
 from biplan._kernels import stored_jit
 from biplan.geometry import chain
 from biplan.geometry.tube import Tube, TubeLayout
@@ -421,7 +421,9 @@ def kernels(layout: TubeLayout) -> Kernels:
         return _kin(L, p, q)
 
     def _store(fn: Any, name: str) -> Any:
-        return stored_jit(fn, name, L)
+        # LLVM's cheap pipeline only with BIPLAN_FAST_COMPILE=on (the test suite): each of
+        # these compiles in 2–9 s and runs in under a millisecond
+        return stored_jit(fn, name, L, kernel_options())
 
     guides = functools.partial(guide_values, L)
     gaps = functools.partial(contact_gaps, L)

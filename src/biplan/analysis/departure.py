@@ -129,7 +129,7 @@ class _Stepper:
 
     def __init__(self, model: Model, ramp: Ramp) -> None:
         self.model, self.ramp = model, ramp
-        self.loop = compiled_loop(model.layout, ramp.newton.free_steps)
+        self.loop = compiled_loop(model.layout)
         self.settings = ramp.newton.settings()
         # the proximal sub-problems of relax() are solved inexactly (as in quasistatic.relax)
         self.sub_settings = inexact_newton(ramp.newton).settings()

@@ -402,7 +402,7 @@ class ResponseEvaluator:
 @functools.lru_cache(maxsize=16)
 def _chord_kernel(layout: TubeLayout) -> Any:
     """:func:`_chord` of one design, jitted (the start of each step of ``response_point``)."""
-    return jax.jit(functools.partial(_chord, layout))
+    return stored_jit(functools.partial(_chord, layout), "chord", layout, kernel_options())
 
 
 def response_point(tube: Tube, ramp: ForceRamp | None = None) -> dict[str, float]:

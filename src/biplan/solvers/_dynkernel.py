@@ -193,4 +193,5 @@ def compiled_chunk(layout: TubeLayout) -> Any:
 @functools.lru_cache(maxsize=32)
 def compiled_kinetic(layout: TubeLayout) -> Any:
     """The jitted kinetic energy of a layout."""
-    return jax.jit(functools.partial(kinetic_energy, layout))
+    fn = functools.partial(kinetic_energy, layout)
+    return stored_jit(fn, "kinetic_energy", layout, kernel_options())

@@ -29,7 +29,7 @@ from typing import Any
 import numpy as np
 
 from biplan._errors import ConfigError, check_finite, check_range
-from biplan._jax import jax, jnp
+from biplan._jax import jax, jnp, kernel_options
 from biplan._kernels import stored_jit
 from biplan.assembly import Load, Model
 from biplan.inertia import mass_matrix
@@ -184,7 +184,8 @@ class LoadHistory:
 
 @functools.lru_cache(maxsize=16)
 def _mass_kernel(layout: Any) -> Any:
-    return stored_jit(functools.partial(mass_matrix, layout), "mass_matrix", layout)
+    fn = functools.partial(mass_matrix, layout)
+    return stored_jit(fn, "mass_matrix", layout, kernel_options())
 
 
 def mass_matrix_at(model: Model, q: np.ndarray) -> np.ndarray:

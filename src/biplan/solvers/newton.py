@@ -98,7 +98,11 @@ class Newton:
             raise ConfigError("Newton.contact_restart", self.contact_restart, "True or False")
 
     def settings(self) -> Array:
-        return jnp.asarray([self.atol, self.max_steps, self.max_backtracks, self.armijo])
+        """[atol, max_steps, max_backtracks, armijo, free_steps]: the traced settings of the
+        compiled iterations (:func:`newton_machine`)."""
+        return jnp.asarray(
+            [self.atol, self.max_steps, self.max_backtracks, self.armijo, self.free_steps]
+        )
 
 
 class LoopState(NamedTuple):
@@ -136,7 +140,7 @@ def newton_machine(
     load: Load,
     settings: Array,
     line_search_loop: bool = False,
-    free_steps: int = 0,
+    free_steps: int | None = 0,
     axis_name: str | None = None,
 ) -> tuple:
     """(init, body, running, finish) of the globalised Newton iteration of :func:`newton_loop`.
@@ -163,7 +167,11 @@ def newton_machine(
 
     Both visit the same trial points (results equal to rounding; a solve that grinds through
     hundreds of LM trials can end differently). ``free_steps`` (static) is the watchdog of
-    :class:`Newton`; with 0 its state fields are carried but never computed.
+    :class:`Newton`; with 0 its state fields are carried but never computed. With None the
+    watchdog is compiled in and its length is traced (``settings[4]``, as
+    :meth:`Newton.settings`): one kernel serves every watchdog length, and a length of 0 takes
+    the same iterates as the static 0 (the bookkeeping runs, but never accepts a step nor
+    reverts).
 
     ``axis_name`` (static): the name of an enclosing ``vmap`` axis (``jax.vmap(...,
     axis_name=...)``). The Levenberg–Marquardt direction (a normal-equations solve, ≈ 1/4 of
@@ -174,6 +182,8 @@ def newton_machine(
     """
     k = kernels(layout)
     atol, max_steps, max_bt, c_arm = settings[0], settings[1], settings[2], settings[3]
+    watchdog = free_steps is None or free_steps > 0
+    free0 = settings[4].astype(jnp.asarray(0).dtype) if free_steps is None else free_steps
     alpha_min = 0.5**max_bt
     max_evals = max_steps * (max_bt + 1)
 
@@ -203,14 +213,14 @@ def newton_machine(
         ft = jnp.where(jnp.isfinite(ft), ft, jnp.inf)
         armijo = ft <= s.f + c_arm * s.alpha * s.slope
         accept = jnp.where(s.lm, ft < s.f, armijo) | ~jnp.isfinite(s.f)
-        if free_steps:
+        if watchdog:
             accept = accept | (s.free > 0)
         return zt, rt, ft, accept & jnp.isfinite(ft)
 
     def watch(prev: LoopState, new: LoopState, accepted: Array) -> LoopState:
         """Watchdog bookkeeping after a pass: count the free step, keep the best iterate and,
         when the free steps are spent without convergence, go back to the best one."""
-        if not free_steps:
+        if not watchdog:
             return new
         used = accepted & jnp.isfinite(prev.f) & (prev.free > 0)
         free = prev.free - used.astype(prev.free.dtype)
@@ -362,7 +372,7 @@ def newton_machine(
             pending=jnp.asarray(False),
             r_trial=jnp.zeros(n),
             f_trial=jnp.asarray(jnp.inf),
-            free=jnp.asarray(free_steps),
+            free=jnp.asarray(free0),
             best_z=z0,
             best_r=jnp.zeros(n),
             best_f=jnp.asarray(jnp.inf),
@@ -386,7 +396,7 @@ def newton_loop(
     load: Load,
     settings: Array,
     line_search_loop: bool = False,
-    free_steps: int = 0,
+    free_steps: int | None = 0,
     axis_name: str | None = None,
 ) -> LoopState:
     """Pure (jit/vmap-able) globalised Newton iteration (:func:`newton_machine`): Newton steps
@@ -401,10 +411,11 @@ def newton_loop(
 
 
 @functools.lru_cache(maxsize=64)
-def compiled_loop(layout: TubeLayout, free_steps: int = 0) -> Any:
-    """The jitted Newton loop of a layout and watchdog length (built once)."""
-    fn = functools.partial(newton_loop, layout, free_steps=free_steps)
-    return stored_jit(fn, "newton_loop", (layout, free_steps))
+def compiled_loop(layout: TubeLayout) -> Any:
+    """The jitted Newton loop of a layout (built once; the watchdog length is traced, so
+    every :class:`Newton` shares it)."""
+    fn = functools.partial(newton_loop, layout, free_steps=None)
+    return stored_jit(fn, "newton_loop", layout)
 
 
 @dataclass(frozen=True)
@@ -550,7 +561,7 @@ def solve_equilibrium(
     if not isinstance(load, Load):
         raise ConfigError("load", load, "a biplan Load (Load.of_force / Load.of_displacement)")
     z0 = _start_vector(model, model.zeros() if start is None else start)
-    loop = compiled_loop(model.layout, solver.free_steps)
+    loop = compiled_loop(model.layout)
     jload = load.for_kernel()
     out = loop(model.params, jnp.asarray(z0), jload, solver.settings())
     steps, restarts = int(out.steps), 0
