@@ -490,10 +490,11 @@ def test_traced_watchdog_of_length_zero_takes_the_plain_iterates(model1):
     length 0 it takes exactly the iterates of the loop compiled without a watchdog."""
     import functools
 
-    from biplan._jax import jax, jnp
+    from biplan._jax import jax, jnp, kernel_options
     from biplan.solvers.newton import compiled_loop, newton_loop
 
-    plain = jax.jit(functools.partial(newton_loop, model1.layout, free_steps=0))
+    plain = jax.jit(functools.partial(newton_loop, model1.layout, free_steps=0),
+                    compiler_options=kernel_options(runs_often=True))  # fmt: skip
     rng = np.random.default_rng(5)
     load = Load(jnp.asarray(0.0), jnp.asarray(0.8), jnp.asarray(1.0))
     settings = Newton(max_steps=40, free_steps=0).settings()

@@ -10,6 +10,7 @@ import pytest
 
 from biplan._jax import (
     CHEAP_PIPELINE,
+    LIGHT_PIPELINE,
     jax,
     jnp,
     kernel_options,
@@ -33,12 +34,19 @@ def test_fast_compile_gives_the_cheap_pipeline_per_kernel(monkeypatch):
     assert os.environ["BIPLAN_FAST_COMPILE"] == "on"
     assert "xla_backend_optimization_level" not in os.environ["XLA_FLAGS"]
     assert kernel_options() == CHEAP_PIPELINE
-    f = jax.jit(lambda x: jnp.sin(x) ** 2, compiler_options=kernel_options())
-    assert float(f.lower(jnp.ones(3)).compile()(jnp.ones(3))[0]) == pytest.approx(np.sin(1) ** 2)
+    assert kernel_options(runs_often=True) == LIGHT_PIPELINE
+    for options in (kernel_options(), kernel_options(runs_often=True)):
+        f = jax.jit(lambda x: jnp.sin(x) ** 2, compiler_options=options)
+        y = f.lower(jnp.ones(3)).compile()(jnp.ones(3))
+        assert float(y[0]) == pytest.approx(np.sin(1) ** 2)
     monkeypatch.setenv("XLA_FLAGS", "--xla_backend_optimization_level=2")
-    assert kernel_options() == {"xla_llvm_disable_expensive_passes": True}
+    assert kernel_options() == {
+        "xla_llvm_disable_expensive_passes": True,
+        "xla_cpu_use_fusion_emitters": False,
+    }
     monkeypatch.setenv("BIPLAN_FAST_COMPILE", "off")
     assert kernel_options() is None
+    assert kernel_options(runs_often=True) is None
 
 
 @pytest.mark.skipif(not sys.platform.startswith("linux"), reason="/proc/self/maps is Linux")

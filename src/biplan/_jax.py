@@ -19,15 +19,17 @@ with the multi-threaded pool already off matches it.
 
 ``BIPLAN_FAST_COMPILE=on`` compiles the large batched kernels that compile long and run little
 (dynamics chunk, path kernel and corrector, Newton pool, batched relaxation and observation,
-band relaxation, design-map lanes) with LLVM's cheap pipeline (:data:`CHEAP_PIPELINE`, passed
-per kernel by :func:`kernel_options`): they compile 25–40 % faster and run up to ~2× slower,
-which pays for short runs dominated by compilation (the test suite sets it;
-docs/performance.md, "Suite time"). The scalar Newton loop keeps XLA's default pipeline either
-way: a displacement sweep calls it hundreds of times, and it runs ~5× slower without it. The
-model's per-point kernels (:func:`biplan.assembly.kernels`: energy, residual, Jacobian, state,
-…) take the cheap pipeline too where they are called on their own (they compile in 2–9 s and
-run in under a millisecond either way); inside a solver's kernel they are inlined, since JAX
-accepts compiler options only on a top-level ``jit``.
+band relaxation, design-map lanes) with a cheap pipeline (:data:`CHEAP_PIPELINE`, passed per
+kernel by :func:`kernel_options`: LLVM at -O0 without its expensive passes, and XLA:CPU's
+loop emitters instead of its fusion emitters): they compile 40–60 % faster and run up to ~2×
+slower, which pays for short runs dominated by compilation (the test suite sets it;
+docs/performance.md, "Suite time"). The model's per-point kernels
+(:func:`biplan.assembly.kernels`: energy, residual, Jacobian, state, …) take it too where
+they are called on their own (they compile in 2–9 s and run in under a millisecond either
+way); inside a solver's kernel they are inlined, since JAX accepts compiler options only on a
+top-level ``jit``. The scalar Newton loop, which a displacement sweep calls hundreds of times
+(~5× slower with the whole cheap pipeline), takes only :data:`LIGHT_PIPELINE` (compiles
+~26 % faster, runs ~25 % slower).
 """
 
 from __future__ import annotations
@@ -100,24 +102,31 @@ __all__ = [
 #: compiled executables themselves register a function here that drops them.
 CLEAR_HOOKS: list[Callable[[], None]] = []
 
-#: XLA debug options of LLVM's cheap pipeline (``BIPLAN_FAST_COMPILE=on``).
+#: XLA debug options of LLVM's cheap pipeline (``BIPLAN_FAST_COMPILE=on``): LLVM at -O0
+#: without its expensive passes, and XLA:CPU's loop emitters instead of its MLIR fusion
+#: emitters (those alone compile the Newton loop ~26 % faster and run it ~25 % slower).
 CHEAP_PIPELINE: dict[str, int | bool] = {
     "xla_backend_optimization_level": 0,
     "xla_llvm_disable_expensive_passes": True,
+    "xla_cpu_use_fusion_emitters": False,
 }
+#: The part of :data:`CHEAP_PIPELINE` that kernels run many times take (the scalar Newton
+#: loop): it keeps LLVM's optimisation.
+LIGHT_PIPELINE: dict[str, int | bool] = {"xla_cpu_use_fusion_emitters": False}
 
 
-def kernel_options() -> dict[str, int | bool] | None:
-    """``compiler_options`` for ``jax.jit`` of a kernel that compiles long and runs little:
-    :data:`CHEAP_PIPELINE` when ``BIPLAN_FAST_COMPILE`` is on (read when the kernel is built),
-    else None (XLA's default).
+def kernel_options(runs_often: bool = False) -> dict[str, int | bool] | None:
+    """``compiler_options`` for ``jax.jit`` of a kernel: with ``BIPLAN_FAST_COMPILE`` on (read
+    when the kernel is built) :data:`CHEAP_PIPELINE` for a kernel that compiles long and runs
+    little, :data:`LIGHT_PIPELINE` for one that ``runs_often``; else None (XLA's default).
 
     A pipeline option the user set in ``XLA_FLAGS`` wins (it is left out here).
     """
     if os.environ.get("BIPLAN_FAST_COMPILE", "").lower() not in _ON:
         return None
     flags = os.environ.get("XLA_FLAGS", "")
-    return {k: v for k, v in CHEAP_PIPELINE.items() if k not in flags}
+    chosen = LIGHT_PIPELINE if runs_often else CHEAP_PIPELINE
+    return {k: v for k, v in chosen.items() if k not in flags}
 
 
 def memory_map_count() -> int:

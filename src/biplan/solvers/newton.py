@@ -18,7 +18,7 @@ import numpy as np
 
 from biplan import _linalg as linalg
 from biplan._errors import ConfigError, ConvergenceError, check_integer, check_range
-from biplan._jax import jax, jnp
+from biplan._jax import jax, jnp, kernel_options
 from biplan._kernels import stored_jit
 from biplan.assembly import Load, Model, StateData, TubeLayout, kernels
 
@@ -415,7 +415,7 @@ def compiled_loop(layout: TubeLayout) -> Any:
     """The jitted Newton loop of a layout (built once; the watchdog length is traced, so
     every :class:`Newton` shares it)."""
     fn = functools.partial(newton_loop, layout, free_steps=None)
-    return stored_jit(fn, "newton_loop", layout)
+    return stored_jit(fn, "newton_loop", layout, kernel_options(runs_often=True))
 
 
 @dataclass(frozen=True)
