@@ -9,6 +9,9 @@ Prints, for the semi-bistable paper design (6 modules, 64 unknowns):
 * cache-warm start — the same in a fresh process reading the persistent cache, with the
   kernel store (traced kernels, ``biplan._kernels``) off and on: the store's share is the
   tracing and lowering that a warm start no longer does;
+* two processes at once on a fresh cache (e.g. two Dask workers starting on the same design),
+  with the store's build lock (one process traces and compiles each kernel, the other waits
+  and reads it) and without it (``_kernels._entry_lock`` patched out): wall and CPU seconds;
 * warm solves — 40 displacement-controlled steps (0.02 → 0.8 mm) in this process, per step;
 * baseline — the same 40 steps with ``scipy.optimize.root`` (hybr, finite-difference
   Jacobian) on the *same jitted residual*, i.e. a favourable baseline (a plain NumPy residual
@@ -47,6 +50,33 @@ def _start(cache: str, store: str = "on") -> tuple[float, float]:
     return float(a), float(b)
 
 
+UNLOCKED = """
+import contextlib
+from biplan import _kernels
+_kernels._entry_lock = lambda file: contextlib.nullcontext()
+"""
+
+
+def _pair(locked: bool) -> tuple[float, float]:
+    """Wall and CPU seconds of two concurrent cold starts sharing a fresh cache."""
+    import resource
+
+    code = SNIPPET if locked else UNLOCKED + SNIPPET
+    with tempfile.TemporaryDirectory() as cache:
+        env = dict(os.environ, BIPLAN_JAX_CACHE=cache, BIPLAN_KERNEL_STORE="on")
+        before = resource.getrusage(resource.RUSAGE_CHILDREN)
+        t0 = time.perf_counter()
+        procs = [
+            subprocess.Popen([sys.executable, "-c", code], env=env, stdout=subprocess.DEVNULL)
+            for _ in range(2)
+        ]
+        if any(p.wait() for p in procs):
+            raise RuntimeError("a benchmark process failed")
+        wall = time.perf_counter() - t0
+        after = resource.getrusage(resource.RUSAGE_CHILDREN)
+    return wall, (after.ru_utime - before.ru_utime) + (after.ru_stime - before.ru_stime)
+
+
 def main() -> None:
     imp, cold = _start("off")
     print(
@@ -59,6 +89,13 @@ def main() -> None:
         print(
             f"cache-warm start, store {store:3s}: import {imp_w:.2f} s, "
             f"model+reference+solve+classify {warm_start:.2f} s"
+        )
+
+    for locked in (True, False):
+        wall, cpu = _pair(locked)
+        print(
+            f"two cold starts at once, build lock {'on ' if locked else 'off'}: "
+            f"wall {wall:.1f} s, CPU {cpu:.1f} s"
         )
 
     import scipy.optimize
