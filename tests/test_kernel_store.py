@@ -178,6 +178,23 @@ def test_processes_building_the_same_kernel_trace_it_once(tmp_path: Path) -> Non
     assert sum(err.count("traced") for _, err in outs) == 1
 
 
+def test_a_held_entry_lock_is_waited_for_then_passed(tmp_path: Path, monkeypatch) -> None:
+    """A build waits for another holder of its entry's lock, but at most LOCK_WAIT seconds
+    (a hung holder cannot stop the others); a free lock is taken at once."""
+    import time
+
+    monkeypatch.setattr(_kernels, "LOCK_WAIT", 0.3)
+    entry = tmp_path / "kernel.kernel"
+    t0 = time.perf_counter()
+    with _kernels._entry_lock(entry):
+        free = time.perf_counter() - t0
+        t0 = time.perf_counter()
+        with _kernels._entry_lock(entry):  # a second open file description: a second holder
+            waited = time.perf_counter() - t0
+    assert free < 0.2 and 0.3 <= waited < 5.0
+    assert (tmp_path / "kernel.lock").exists()
+
+
 def test_release_compiled_kernels_drops_the_stored_executables(store) -> None:
     """The memory-map guard (``release_compiled_kernels``) reaches the executables that
     stored kernels hold; the next call rebuilds them from the store."""

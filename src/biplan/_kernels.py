@@ -31,6 +31,7 @@ import os
 import pickle
 import tempfile
 import threading
+import time
 import weakref
 from collections.abc import Callable, Iterator
 from pathlib import Path
@@ -199,11 +200,17 @@ def _as_array(x: Any) -> Any:
     return x if isinstance(x, jax.Array) else jnp.asarray(np.asarray(x))
 
 
+#: Longest wait [s] for another process's build of an entry; past it this process builds the
+#: kernel itself (a hung holder cannot hold the others up for ever).
+LOCK_WAIT = 900.0
+
+
 @contextlib.contextmanager
 def _entry_lock(file: Path) -> Iterator[None]:
     """An exclusive lock on ``<entry>.lock`` across processes (``flock``; released when the
-    holder exits, even by a crash). Where it cannot be had (no ``fcntl``, a read-only store)
-    the build goes on unlocked, as without the store."""
+    holder exits, even by a crash), waited for at most :data:`LOCK_WAIT` seconds. Where it
+    cannot be had (no ``fcntl``, a read-only store, the wait ran out) the build goes on
+    unlocked, as without the store."""
     try:
         import fcntl
 
@@ -213,8 +220,18 @@ def _entry_lock(file: Path) -> Iterator[None]:
         yield
         return
     try:
-        with contextlib.suppress(OSError):
-            fcntl.flock(fd, fcntl.LOCK_EX)
+        deadline, pause = time.monotonic() + LOCK_WAIT, 0.01
+        while True:
+            try:
+                fcntl.flock(fd, fcntl.LOCK_EX | fcntl.LOCK_NB)
+                break
+            except BlockingIOError:
+                if time.monotonic() >= deadline:
+                    break
+                time.sleep(pause)
+                pause = min(2 * pause, 0.5)
+            except OSError:  # no locking on this file system
+                break
         yield
     finally:
         os.close(fd)  # releases the lock
