@@ -191,7 +191,7 @@ def test_a_held_entry_lock_is_waited_for_then_passed(tmp_path: Path, monkeypatch
         t0 = time.perf_counter()
         with _kernels._entry_lock(entry):  # a second open file description: a second holder
             waited = time.perf_counter() - t0
-    assert free < 0.2 and 0.3 <= waited < 5.0
+    assert free < 2.0 and 0.3 <= waited < 10.0  # generous bounds: a loaded CI machine
     assert (tmp_path / "kernel.lock").exists()
 
 
