@@ -63,6 +63,7 @@ def main() -> None:
     ap.add_argument("--threads", type=int, default=2, help="threads of the threaded runs")
     ap.add_argument("--skip-dask", action="store_true")
     ap.add_argument("--skip-sequential", action="store_true", help="threaded runs only")
+    ap.add_argument("--save-stability", default=None, help="write the stability map (netCDF)")
     args = ap.parse_args()
     print(f"cpus: {os.cpu_count()}, load average: {os.getloadavg()}")
     design = biplan.designs.semi_bistable()
@@ -106,6 +107,8 @@ def main() -> None:
         counts = {k: int((sds["regime"].values == v).sum()) for k, v in (("mono", 1), ("bi", 2),
                   ("multi", 3))}  # fmt: skip
         print(f"  regimes: {counts}, transition band: {int(sds['transition'].sum())} points")
+    if args.save_stability:
+        sds.to_netcdf(args.save_stability)
 
     if args.skip_dask:
         return

@@ -44,7 +44,7 @@ def tasks(model6):
 
     m = model6
     u = np.r_[0.01, 0.1] * m.tube.initial_length
-    z0 = np.concatenate([seeds(m, ui) for ui in u])
+    z0 = np.concatenate([seeds(m, ui, "patterns") for ui in u])
     uu = np.repeat(u, len(z0) // 2)
     return m, z0, uu
 

@@ -171,6 +171,23 @@ def test_radial_deflection_largest_at_low_c(design_map) -> None:
     assert np.unravel_index(np.argmin(ur), ur.shape)[1] == len(C_VALUES) - 1
 
 
+def test_axial_helical_fold_adds_nothing_and_bounds_the_map_from_below(design, design_map):
+    """β → 0 (b → l/H): the helical crease runs along the axis, its opening normal is
+    circumferential and it carries no axial load, so the tube is the six circular folds in
+    series: u_z = N F/(k1 H) (closed form, phase 1), u_r = 0. The helical folds only add
+    compliance, so every map point extends at least that much — the smallest extension of any
+    b is at its low end, the opposite of the paper's maps (docs/maps.md)."""
+    tube = apply_values(design, {"helical_angle": 0.5, "C": 0.5})
+    ref = response_point(tube)
+    k1 = design.circular_laws[0].stiffness[0]
+    h = 2 * np.pi * design.development.radius
+    series = design.n_circular * 1.6 / (k1 * h) / design.initial_length
+    assert ref["status"] == 0
+    assert ref["u_z"] == pytest.approx(series, rel=1e-4)
+    assert abs(ref["u_r"]) < 1e-5 * series
+    assert (design_map["u_z"].values > series).all()
+
+
 @pytest.mark.xfail(
     strict=True,
     reason="model gap (docs/maps.md): under the current readings no fold transforms below "
@@ -475,11 +492,34 @@ def test_stability_map_mono_at_small_displacement_multi_at_large(design) -> None
     np.testing.assert_array_equal(whole["n_stable"].values, ds["n_stable"].values)
 
 
+def test_every_pair_of_open_circular_folds_is_a_stable_equilibrium(design) -> None:
+    """At U/l0 = 0.15 two of the six circular folds sit on their third branch and the other
+    four on their first (U = 3.24 mm ≈ 2 × 1.45 mm + 4 × 0.08 mm). The folds are in series
+    and nearly equivalent, so each of the C(6, 2) = 15 pairs is a stable equilibrium; the
+    subset seeds find all 15 at every C, the earlier patterns (lowest and highest folds)
+    only some."""
+    grid = Grid.of(C=[0.5, 3.0], displacement=[0.15])
+    ds = sweep(design, grid, StabilityEvaluator(), chunk_size=2)
+    assert (ds["status"].values == 0).all()
+    assert ds["n_stable"].values.tolist() == [[15], [15]]
+    # the kept equilibria (lowest energy first) each have exactly two open circular folds
+    law = design.circular_laws[0]
+    gamma = ds["q"].values[..., -design.n_circular :]
+    kept = ds["stable"].values == 1
+    assert kept.sum() == 2 * ds.sizes["equilibrium"]
+    open_folds = (gamma > law.transitions[1])[kept].sum(axis=-1)
+    assert (open_folds == 2).all()
+    old = StabilityEvaluator(StabilitySearch(seeding="patterns"))
+    fewer = sweep(design, grid, old, chunk_size=2)
+    assert (fewer["n_stable"].values < 15).all()
+
+
 def test_march_finds_the_equilibria_of_seeding_every_point(design) -> None:
-    """The default search (fixed seeds at every 4th point, branches marched along the row)
+    """The default search (fixed seeds 0.04 apart in U/l0, branches marched along the row)
     counts the same stable equilibria as fixed seeds at every point plus one continuation
     step from both neighbours, with the same energies."""
-    grid = Grid.of(C=[0.5], displacement=np.linspace(0.01, 0.2, 20))  # seeds at 6 of 20
+    # seeds at every other point (spacing 0.04); the chunk size keeps the 32-point kernels
+    grid = Grid.of(C=[0.5], displacement=np.linspace(0.02, 0.2, 10))
     march = sweep(design, grid, StabilityEvaluator(), chunk_size=20)
     every = StabilityEvaluator(StabilitySearch(continuation="neighbours", seed_spacing=0.0))
     ref = sweep(design, grid, every, chunk_size=20)
@@ -496,6 +536,13 @@ def test_stability_search_settings_are_checked() -> None:
         StabilitySearch(continuation="sideways")
     with pytest.raises(ConfigError, match=r"search\.seed_spacing"):
         StabilitySearch(seed_spacing=-0.1)
+    with pytest.raises(ConfigError, match=r"search\.seeding"):
+        StabilitySearch(seeding="random")
+    with pytest.raises(ConfigError, match=r"search\.max_subset_folds"):
+        StabilitySearch(max_subset_folds=0)
+    assert StabilitySearch().seed_kind(8) == "subsets"
+    assert StabilitySearch().seed_kind(9) == "patterns"
+    assert StabilitySearch(seeding="patterns").seed_kind(2) == "patterns"
     ev = StabilityEvaluator()
     row = list(range(40))
     u = np.linspace(0.01, 0.4, 40)

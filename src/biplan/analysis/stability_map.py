@@ -3,14 +3,19 @@
 At every grid point (prescribed normalised end displacement U/l₀ and design parameters, by
 default C at b = 0.58) the distinct equilibria are searched for and classified:
 
-1. **Seeds.** Newton (displacement control, U = value · l₀ [mm]) from a fixed set of starts:
-   all folds closed, the displacement shared by all circular folds, put on a single circular
-   fold (one seed per fold), and shared by the k lowest and by the k highest folds
-   (2 ≤ k < N_c): 3 N_c − 2 seeds, 16 for the semi-bistable design.
+1. **Seeds.** Newton (displacement control, U = value · l₀ [mm]) from a fixed set of starts
+   (:func:`seeds`): by default one per subset of the circular folds, the displacement shared
+   equally by the open folds of the subset (``seeding = "subsets"``: 2^N_c starts, 64 for the
+   semi-bistable design). The circular folds are in series and nearly equivalent, so every
+   combination of k folds on their third branch is a stable equilibrium where U allows k
+   open folds: C(N_c, k) of them (15 for two open folds of six). The 3 N_c − 2 patterns of
+   earlier versions (all closed, shared by all, one per fold, the k lowest and the k highest
+   folds; ``seeding = "patterns"``, used past ``max_subset_folds`` folds) found only the
+   combinations next to the base or the free end.
    By default these fixed seeds run only at points at most ``seed_spacing`` = 0.04 apart in
    U/l₀ along a row (every fourth point of a grid with ΔU/l₀ = 0.01; every point of a coarser
    grid), the first and the last.
-2. **Continuation along the displacement axis** (``continuation = "march"``). The stable
+2. **Continuation along the displacement axis** (``continuation = "march"``). All stable
    equilibria of each point are continued to the next point of the row (Newton from them at
    the new displacement), forward through the whole row; then backward, from the stable
    equilibria that the forward sweep did not reach from the point before (branches that
@@ -43,6 +48,7 @@ should not straddle chunks (the CLI sizes the chunks to whole rows, at least 128
 from __future__ import annotations
 
 import functools
+import itertools
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
 from typing import Any
@@ -53,10 +59,10 @@ from biplan._errors import ConfigError, check_range
 from biplan._jax import jax, jnp, kernel_options
 from biplan._kernels import stored_jit
 from biplan.analysis.design_map import stack_params
-from biplan.assembly import Load, Model, TubeLayout
+from biplan.assembly import Load, Model, TubeLayout, sizes
 from biplan.geometry import Tube
 from biplan.solvers.newton import Newton, Status
-from biplan.solvers.observe import STABILITY_TOL, observe
+from biplan.solvers.observe import ACTIVE_GAP, STABILITY_TOL, observe
 from biplan.solvers.pool import pool_kernel
 
 __all__ = [
@@ -71,6 +77,9 @@ Array = Any
 
 #: Continuation modes of :class:`StabilitySearch`.
 CONTINUATIONS = ("march", "neighbours")
+
+#: Seedings of :class:`StabilitySearch` (:func:`seeds`).
+SEEDINGS = ("subsets", "patterns")
 
 #: Regime codes of ``regime``.
 REGIMES = {"none": 0, "monostable": 1, "bistable": 2, "multistable": 3}
@@ -112,11 +121,20 @@ class StabilitySearch:
         without seeds would see only their neighbours' states). A point where nothing
         converged gets the fixed seeds after the march.
     march_lanes : int
-        Lanes of the pool for the continuation solves (a march step has a few solves per
-        row), ≥ 1.
+        Lanes of the pool for the continuation solves, ≥ 1. Default 16, as ``solve_batch``:
+        with every subset seeded a march step continues 15–35 equilibria per row, enough
+        to fill 16 lanes, and one lane count compiles one pool kernel per layout (a 4-row
+        chunk of the 40 × 40 map: 21 s with 16 lanes, 24 s with 8).
     continuation_steps : int
         Newton iterations per continuation solve (measured on an 8 × 40 check grid: 6 lose
         equilibria at 30 of the 320 points, 10 at 13, 15 at none).
+    seeding : {"subsets", "patterns"}
+        The fixed seeds (:func:`seeds`). "subsets" (default): one per subset of the circular
+        folds, 2^N_c, for tubes with at most ``max_subset_folds`` circular folds (more use
+        "patterns"); "patterns": the 3 N_c − 2 patterns of earlier versions, which find
+        only the combinations of open folds next to the base or the free end.
+    max_subset_folds : int
+        Most circular folds for which "subsets" seeds every subset (2^8 = 256 seeds), ≥ 1.
     """
 
     max_equilibria: int = 8
@@ -127,21 +145,31 @@ class StabilitySearch:
     solve_batch: int = 16
     continuation: str = "march"
     seed_spacing: float = 0.04
-    march_lanes: int = 8
+    march_lanes: int = 16
     continuation_steps: int = 15
+    seeding: str = "subsets"
+    max_subset_folds: int = 8
 
     def __post_init__(self) -> None:
         names = ("max_equilibria", "solve_batch", "max_steps", "max_backtracks", "march_lanes",
-                 "continuation_steps")  # fmt: skip
+                 "continuation_steps", "max_subset_folds")  # fmt: skip
         for name in names:
             v = getattr(self, name)
             if isinstance(v, bool) or not isinstance(v, int) or v < 1:
                 raise ConfigError(f"search.{name}", v, "an integer ≥ 1")
         if self.continuation not in CONTINUATIONS:
             raise ConfigError("search.continuation", self.continuation, f"one of {CONTINUATIONS}")
+        if self.seeding not in SEEDINGS:
+            raise ConfigError("search.seeding", self.seeding, f"one of {SEEDINGS}")
         check_range("search.distinct_tol", self.distinct_tol, low=0.0)
         check_range("search.seed_spacing", self.seed_spacing, low=0.0, low_open=False)
         self.newton()
+
+    def seed_kind(self, n_circular: int) -> str:
+        """The seeding used for a tube with ``n_circular`` circular folds."""
+        if self.seeding == "subsets" and n_circular <= self.max_subset_folds:
+            return "subsets"
+        return "patterns"
 
     def newton(self, continuation: bool = False) -> Newton:
         """Newton settings of the fixed seeds, or of the continuation seeds."""
@@ -175,23 +203,98 @@ def points_per_kernel(n_points: int) -> int:
     return max(8, 1 << (max(int(n_points), 1) - 1).bit_length())
 
 
-def seeds(model: Model, u: float) -> np.ndarray:
-    """Packed starting vectors (n_seeds, n_z) for prescribed displacement ``u`` [mm]."""
+#: Contact multiplier [N/mm] of the closed contacts of a "pressed" seed (:func:`seeds`).
+PRESS = 1e-3
+
+
+def pushing(tube: Tube, u: np.ndarray) -> np.ndarray:
+    """(len(u), N_c, N_c) booleans: whether circular fold i pushes (law force < 0) when k + 1
+    folds share the displacement u [mm] equally (opening u / (k + 1)); one law evaluation
+    per distinct law."""
+    u = np.asarray(u, dtype=float).reshape(-1)
+    n_circ = tube.n_circular
+    ws = u[:, None] / np.arange(1, n_circ + 1)[None, :]
+    forces: dict[Any, np.ndarray] = {}
+    for law in tube.circular_laws:
+        if law not in forces:
+            forces[law] = np.asarray(law.force(ws)) < 0.0
+    return np.stack([forces[law] for law in tube.circular_laws], axis=1)
+
+
+def seeds(
+    model: Model,
+    u: float,
+    kind: str = "subsets",
+    pressed_only: bool = False,
+    pushes: np.ndarray | None = None,
+) -> np.ndarray:
+    """Packed starting vectors (n_seeds, n_z) for prescribed displacement ``u`` [mm].
+
+    ``kind`` "subsets": one start per subset of the circular folds (2^N_c, all folds closed
+    first), the displacement shared equally by the open folds of the subset — the fold states
+    of the tube's phase-1/phase-2 combinations, every one of which can be a stable
+    equilibrium (the circular folds are in series and nearly equivalent; docs/maps.md).
+    "patterns": the 3 N_c − 2 patterns of earlier versions (all closed, shared by all, one
+    per fold, the k lowest and the k highest folds), which miss most combinations of two or
+    more open folds.
+
+    A start whose open folds all *push* (law force < 0 at their opening: between a
+    bistable law's unloaded open opening and its second zero) is added a second time,
+    *pressed*: with multiplier :data:`PRESS` on every closed contact. Such a state can be an
+    equilibrium held by the contacts alone — the tube in compression, every other fold pressed
+    shut, no free direction left (a contact-locked state, stable by MODEL.md §12). Newton from
+    zero multipliers treats a closed gap and its multiplier alike and opens the gaps, so it
+    leaves such states; from the pressed start it keeps the gaps shut and finds the
+    multipliers (docs/maps.md, "contact-locked states"). ``pressed_only``: only these
+    (possibly none: shape (0, n_z)). ``pushes``: :func:`pushing` of this ``u`` (computed
+    when not given).
+    """
     nq = model.n_coordinates
     n_circ = model.tube.n_circular
     first = nq - n_circ
-    patterns: list[np.ndarray] = [np.zeros(n_circ), np.ones(n_circ)]
-    patterns += [np.eye(n_circ)[i] for i in range(n_circ)]
-    for k in range(2, n_circ):
-        patterns += [np.r_[np.ones(k), np.zeros(n_circ - k)]]
-        patterns += [np.r_[np.zeros(n_circ - k), np.ones(k)]]
-    out = []
+    patterns: list[np.ndarray]
+    if kind == "subsets":
+        patterns = [
+            np.isin(np.arange(n_circ), c).astype(float)
+            for k in range(n_circ + 1)
+            for c in itertools.combinations(range(n_circ), k)
+        ]
+    else:
+        patterns = [np.zeros(n_circ), np.ones(n_circ)]
+        patterns += [np.eye(n_circ)[i] for i in range(n_circ)]
+        for k in range(2, n_circ):
+            patterns += [np.r_[np.ones(k), np.zeros(n_circ - k)]]
+            patterns += [np.r_[np.zeros(n_circ - k), np.ones(k)]]
+    if pushes is None:
+        pushes = pushing(model.tube, np.array([u]))[0]
+    n_z = nq + model.n_guides + model.n_contacts + 1
+    out, pressed = [], []
     for pat in patterns:
-        q = np.zeros(nq)
-        if pat.sum() > 0:
-            q[first:] = pat * u / pat.sum()
-        out.append(model.pack(q))
-    return np.asarray(out)
+        k = int(pat.sum())
+        push = k > 0 and bool(pushes[pat > 0, k - 1].all())
+        if pressed_only and not push:
+            continue
+        z = np.zeros(n_z)
+        if k > 0:
+            z[first:nq] = pat * u / k
+        out.append(z)
+        if push:
+            pressed.append(z)
+    if pressed:
+        _, n_guides, n_contacts = sizes(model.layout)
+        gaps = np.asarray([model.contact_gaps(zp[:nq]) for zp in pressed])
+        z = np.array(pressed)
+        z[:, nq + n_guides : nq + n_guides + n_contacts] = np.where(gaps < ACTIVE_GAP, PRESS, 0.0)
+        if pressed_only:
+            return z
+        out += list(z)
+    return np.asarray(out).reshape(-1, n_z)
+
+
+def max_seeds(n_circular: int, kind: str) -> int:
+    """Most starts :func:`seeds` returns for ``n_circular`` folds (pressed ones included)."""
+    n = 2**n_circular if kind == "subsets" else 3 * n_circular - 2
+    return 2 * n
 
 
 def _same(others: Any, z: np.ndarray, nq: int, tol: float) -> np.ndarray:
@@ -252,6 +355,7 @@ class StabilityEvaluator:
             "max_backtracks": s.max_backtracks,
             "continuation": s.continuation,
             "seed_spacing": s.seed_spacing,
+            "seeding": s.seeding,
             "continuation_steps": s.continuation_steps,
             "stability_tol": STABILITY_TOL,
         }
@@ -348,13 +452,14 @@ class StabilityEvaluator:
         models = [Model(t) for t in tubes]
         size = points_per_kernel(max(batch, len(models)))
         params = stack_params(models, size)
-        n_seeds = len(seeds(models[0], 0.0))
+        kind = s.seed_kind(tubes[0].n_circular)
+        n_seeds = max_seeds(tubes[0].n_circular, kind)
         capacity = size * max(n_seeds, 2 * s.max_equilibria)
         u = [
             float(ld["displacement"]) * t.initial_length for ld, t in zip(loads, tubes, strict=True)
         ]
         nq = models[0].n_coordinates
-        acc = _Solutions(len(models), nq, s.distinct_tol, s.max_equilibria)
+        acc = _Solutions(len(models), nq, s.distinct_tol)
 
         def solve(rows: list[int], z0: list[np.ndarray], cont: bool) -> list[np.ndarray]:
             r = np.asarray(rows, dtype=int)
@@ -375,16 +480,23 @@ class StabilityEvaluator:
         disp = [float(ld["displacement"]) for ld in loads]
         seeded = [j for row in rows_of for j in self._seeded([disp[k] for k in row], row)]
 
-        def fixed_seeds(points: list[int]) -> None:
+        same_folds = len({t.circular_laws for t in tubes}) == 1
+        pushes = pushing(tubes[0], np.asarray(u)) if same_folds else None
+
+        def fixed_seeds(points: list[int], pressed_elsewhere: bool = False) -> None:
             rows, z0 = [], []
-            for j in points:
-                sd = seeds(models[j], u[j])
+            for j in range(len(models)) if pressed_elsewhere else points:
+                push = None if pushes is None else pushes[j]
+                sd = seeds(models[j], u[j], kind, pressed_only=j not in points, pushes=push)
                 rows += [j] * len(sd)
                 z0 += list(sd)
             if rows:
                 solve(rows, z0, False)
 
-        fixed_seeds(seeded)
+        # the pressed seeds run at every point: contact-locked states live in windows
+        # narrower than the seed spacing, and continuation from a state in tension does not
+        # enter them (its closing contacts start without multipliers)
+        fixed_seeds(seeded, pressed_elsewhere=True)
         # 2. continuation along the displacement axis
         if s.continuation == "neighbours":
             rows, z0 = [], []
@@ -466,8 +578,8 @@ class _Solutions:
     """The converged solutions found so far at every point of a group, and their distinct
     equilibria (lowest energy first)."""
 
-    def __init__(self, n_points: int, nq: int, tol: float, max_equilibria: int) -> None:
-        self.n_points, self.nq, self.tol, self.max_eq = n_points, nq, tol, max_equilibria
+    def __init__(self, n_points: int, nq: int, tol: float) -> None:
+        self.n_points, self.nq, self.tol = n_points, nq, tol
         self.rows: list[np.ndarray] = []
         self.sols: list[list[np.ndarray]] = []
         self._cache: dict[int, dict[str, Any]] = {}
@@ -491,7 +603,7 @@ class _Solutions:
             self._cache[j] = {
                 "z": z[keep], "energy": energy[keep], "lam": lam[keep], "u_z": uz[keep],
                 "u_r": ur[keep], "force": force[keep], "stable": stable,
-                "z_stable": z[keep][stable][: self.max_eq],
+                "z_stable": z[keep][stable],
             }  # fmt: skip
         return self._cache[j]
 

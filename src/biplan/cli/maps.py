@@ -178,6 +178,13 @@ def stability(
     out: _Out = Path("stability_map"),
     b: Annotated[float, typer.Option("--b", help="Geometric ratio b (set through β).")] = 0.58,
     max_equilibria: Annotated[int, typer.Option(help="Equilibria kept per point.")] = 8,
+    seeding: Annotated[
+        str,
+        typer.Option(
+            help="Fixed seeds: 'subsets' (every subset of open circular folds, up to 8 folds) "
+            "or 'patterns' (3 N_c - 2 patterns, earlier versions)."
+        ),
+    ] = "subsets",
     chunk_size: Annotated[
         int | None,
         typer.Option(help="Points per chunk (default: whole rows of displacements, ≥ 128 points)."),
@@ -200,7 +207,7 @@ def stability(
 
     tube = apply_values(biplan.load_config(config), {"b": b})
     grid = Grid((parse_axis("C", c), parse_axis("displacement", displacement)))
-    ev = StabilityEvaluator(StabilitySearch(max_equilibria=max_equilibria))
+    ev = StabilityEvaluator(StabilitySearch(max_equilibria=max_equilibria, seeding=seeding))
     size = chunk_size or stability_chunk_size(grid.shape[1])
     ds = run_map(tube, grid, ev, out, chunk_size=size, resume=resume, workers=workers,
                  scheduler=scheduler, threads=threads, quiet=True)  # fmt: skip
