@@ -531,6 +531,8 @@ def test_stability_search_settings_are_checked() -> None:
         StabilitySearch(seeding="random")
     with pytest.raises(ConfigError, match=r"search\.max_subset_folds"):
         StabilitySearch(max_subset_folds=0)
+    with pytest.raises(ConfigError, match=r"search\.max_subset_folds.*1 to 12"):
+        StabilitySearch(max_subset_folds=20)
     assert StabilitySearch().seed_kind(8) == "subsets"
     assert StabilitySearch().seed_kind(9) == "patterns"
     assert StabilitySearch(seeding="patterns").seed_kind(2) == "patterns"

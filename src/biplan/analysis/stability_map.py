@@ -81,6 +81,9 @@ CONTINUATIONS = ("march", "neighbours")
 #: Seedings of :class:`StabilitySearch` (:func:`seeds`).
 SEEDINGS = ("subsets", "patterns")
 
+#: Largest ``StabilitySearch.max_subset_folds``: 2^12 = 4096 seeds per seeded point.
+MAX_SUBSET_FOLDS = 12
+
 #: Regime codes of ``regime``.
 REGIMES = {"none": 0, "monostable": 1, "bistable": 2, "multistable": 3}
 
@@ -134,7 +137,8 @@ class StabilitySearch:
         "patterns"); "patterns": the 3 N_c − 2 patterns of earlier versions, which find
         only the combinations of open folds next to the base or the free end.
     max_subset_folds : int
-        Most circular folds for which "subsets" seeds every subset (2^8 = 256 seeds), ≥ 1.
+        Most circular folds for which "subsets" seeds every subset (2^8 = 256 seeds), from 1
+        to :data:`MAX_SUBSET_FOLDS` = 12.
     """
 
     max_equilibria: int = 8
@@ -161,6 +165,9 @@ class StabilitySearch:
             raise ConfigError("search.continuation", self.continuation, f"one of {CONTINUATIONS}")
         if self.seeding not in SEEDINGS:
             raise ConfigError("search.seeding", self.seeding, f"one of {SEEDINGS}")
+        if self.max_subset_folds > MAX_SUBSET_FOLDS:
+            valid = f"an integer from 1 to {MAX_SUBSET_FOLDS} (2^N seeds per point)"
+            raise ConfigError("search.max_subset_folds", self.max_subset_folds, valid)
         check_range("search.distinct_tol", self.distinct_tol, low=0.0)
         check_range("search.seed_spacing", self.seed_spacing, low=0.0, low_open=False)
         self.newton()
