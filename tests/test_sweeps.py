@@ -21,6 +21,7 @@ from biplan.analysis.stability_map import (
     StabilityEvaluator,
     StabilitySearch,
     points_per_kernel,
+    pushing,
     stability_chunk_size,
     transition_band,
 )
@@ -503,6 +504,30 @@ def test_stability_map_mono_at_small_displacement_multi_at_large(design) -> None
     whole = sweep(design, grid, StabilityEvaluator(), chunk_size=3)  # one row per chunk
     assert kernel._cache_size() == compiled
     np.testing.assert_array_equal(whole["n_stable"].values, ds["n_stable"].values)
+
+
+def test_contact_locked_one_fold_states_start_multistability_at_w_b(design) -> None:
+    """A circular fold opened by U between w_b (its unloaded open opening, the law's hilltop)
+    and w_s (its open well) pushes: the tube is in compression and the other folds are pressed
+    shut. With every closed contact loaded no admissible direction is left, so each of the six
+    one-fold states is a stable, contact-locked equilibrium (λ_min = +∞, MODEL.md §12), found
+    from the pressed seeds. Multistability therefore starts at U = w_b exactly, at every C."""
+    law = design.circular_laws[0]
+    w_b, w_s = law.hilltop(), law.wells()[1]
+    push = pushing(design, np.array([0.95 * w_b, 1.05 * w_b, 0.95 * w_s, 1.05 * w_s]))
+    assert push[:, :, 0].all(axis=1).tolist() == [False, True, True, False]  # one open fold
+    assert not push[:, :, 0].any(axis=1)[[0, 3]].any()
+    l0 = design.initial_length
+    grid = Grid.of(C=[0.5, 3.0], displacement=[0.99 * w_b / l0, 1.01 * w_b / l0])
+    ds = sweep(design, grid, StabilityEvaluator(), chunk_size=4)
+    assert ds["n_stable"].values.tolist() == [[1, 7], [1, 7]]
+    stable = ds["stable"].values[:, 1] == 1
+    locked = stable & np.isinf(ds["min_eigenvalue"].values[:, 1])
+    assert locked.sum(axis=-1).tolist() == [6, 6]
+    # each locked state is its pressed seed: one fold open by U, the others shut
+    gamma = np.sort(ds["q"].values[:, 1, :, -design.n_circular :][locked], axis=-1)
+    np.testing.assert_allclose(gamma[:, -1], 1.01 * w_b, rtol=1e-4)
+    assert np.abs(gamma[:, :-1]).max() < 1e-4
 
 
 def test_march_finds_the_equilibria_of_seeding_every_point(design) -> None:

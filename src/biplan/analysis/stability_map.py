@@ -59,7 +59,7 @@ from biplan._errors import ConfigError, check_range
 from biplan._jax import jax, jnp, kernel_options
 from biplan._kernels import stored_jit
 from biplan.analysis.design_map import stack_params
-from biplan.assembly import Load, Model, TubeLayout, sizes
+from biplan.assembly import Load, Model, TubeLayout
 from biplan.geometry import Tube
 from biplan.solvers.newton import Newton, Status
 from biplan.solvers.observe import ACTIVE_GAP, STABILITY_TOL, observe
@@ -274,8 +274,9 @@ def seeds(
             patterns += [np.r_[np.zeros(n_circ - k), np.ones(k)]]
     if pushes is None:
         pushes = pushing(model.tube, np.array([u]))[0]
-    n_z = nq + model.n_guides + model.n_contacts + 1
-    out, pressed = [], []
+    lam_c = slice(nq + model.n_guides, nq + model.n_guides + model.n_contacts)
+    n_z = lam_c.stop + 1
+    plain, pressed = [], []
     for pat in patterns:
         k = int(pat.sum())
         push = k > 0 and bool(pushes[pat > 0, k - 1].all())
@@ -284,17 +285,12 @@ def seeds(
         z = np.zeros(n_z)
         if k > 0:
             z[first:nq] = pat * u / k
-        out.append(z)
+        plain.append(z)
         if push:
-            pressed.append(z)
-    if pressed:
-        _, n_guides, n_contacts = sizes(model.layout)
-        gaps = np.asarray([model.contact_gaps(zp[:nq]) for zp in pressed])
-        z = np.array(pressed)
-        z[:, nq + n_guides : nq + n_guides + n_contacts] = np.where(gaps < ACTIVE_GAP, PRESS, 0.0)
-        if pressed_only:
-            return z
-        out += list(z)
+            zp = z.copy()
+            zp[lam_c] = np.where(model.contact_gaps(z[:nq]) < ACTIVE_GAP, PRESS, 0.0)
+            pressed.append(zp)
+    out = pressed if pressed_only else plain + pressed
     return np.asarray(out).reshape(-1, n_z)
 
 
