@@ -26,6 +26,7 @@ from typing import Any, NamedTuple
 
 import numpy as np
 
+from biplan import elements
 from biplan._errors import ConfigError, check_finite
 from biplan._jax import jax, jnp, kernel_options
 from biplan._kernels import stored_jit
@@ -227,59 +228,46 @@ def load_height(layout: TubeLayout, p: ModelParams, q: Array) -> Array:
     return chain.load_height(layout, p.geometry, _kin(layout, p, q), kin_ref)
 
 
-def lagrangian(
-    layout: TubeLayout,
-    p: ModelParams,
-    z: Array,
-    load: Load,
-    kin_ref: chain.Kinematics | None = None,
-) -> Array:
-    """L(q, λ, λ_∂, μ) of the module docstring [N·mm]."""
+def _terms(
+    layout: TubeLayout, p: ModelParams, z: Array, load: Load, second_order: bool
+) -> tuple[elements.LocalTerms, elements.ChainTerms, Array, Array]:
+    """Local and chain terms at z, the ∇z_p coefficient μd − F, and the bias-free q."""
     q, lam, lam_c, mu = _split(layout, z)
-    if kin_ref is None:
-        kin_ref = _reference_load_point(layout, p)
-    kin = _kin(layout, p, q)
-    zp = chain.load_height(layout, p.geometry, kin, kin_ref)
-    helical, circ = _energies(layout, p, kin)
-    return (
-        helical.sum()
-        + circ.sum()
-        + 0.5 * p.bias_stiffness * jnp.sum((q - p.bias_anchor) ** 2)
-        - load.force * zp
-        + lam @ kin.guides
-        - lam_c @ _gaps(layout, p, kin)
-        + mu * load.displacement_control * (zp - load.displacement)
-    )
+    local = elements.local_terms(layout, p, q, lam, lam_c, second_order)
+    chain_part = elements.chain_terms(layout, p.geometry, q, second_order)
+    return local, chain_part, mu * load.displacement_control - load.force, q
+
+
+def _lagrangian_gradient(
+    p: ModelParams,
+    local: elements.LocalTerms,
+    chain_part: elements.ChainTerms,
+    coef: Array,
+    q: Array,
+) -> Array:
+    return local.gradient + coef * chain_part.gradient + p.bias_stiffness * (q - p.bias_anchor)
+
+
+def _lagrangian_hessian(
+    p: ModelParams, local: elements.LocalTerms, chain_part: elements.ChainTerms, coef: Array
+) -> Array:
+    nq = local.gradient.shape[0]
+    return local.hessian + coef * chain_part.hessian + p.bias_stiffness * jnp.eye(nq)
 
 
 def residual(layout: TubeLayout, p: ModelParams, z: Array, load: Load) -> Array:
-    """KKT residual r(z) (MODEL §11) for z = [q, λ, λ_∂, μ]."""
-    q, _, lam_c, mu = _split(layout, z)
-    kin_ref = jax.lax.stop_gradient(_reference_load_point(layout, p))
-    rest = z[layout.n_coordinates :]
-    grad_q = jax.grad(lambda qq: lagrangian(layout, p, jnp.concatenate([qq, rest]), load, kin_ref))(
-        q
-    )
-    kin = _kin(layout, p, q)
-    zp = chain.load_height(layout, p.geometry, kin, kin_ref)
+    """KKT residual r(z) (MODEL §11) for z = [q, λ, λ_∂, μ], assembled over the elements."""
+    local, chain_part, coef, q = _terms(layout, p, z, load, second_order=False)
+    _, _, lam_c, mu = _split(layout, z)
     d = load.displacement_control
     return jnp.concatenate(
         [
-            grad_q,
-            kin.guides,
-            sfb(_gaps(layout, p, kin) + p.compliance * lam_c, lam_c, p.smoothing),
-            (d * (zp - load.displacement) + (1.0 - d) * mu)[None],
+            _lagrangian_gradient(p, local, chain_part, coef, q),
+            local.guides,
+            sfb(local.gaps + p.compliance * lam_c, lam_c, p.smoothing),
+            (d * (chain_part.value - load.displacement) + (1.0 - d) * mu)[None],
         ]
     )
-
-
-def _constraint_values(
-    layout: TubeLayout, p: ModelParams, q: Array, kin_ref: chain.Kinematics
-) -> Array:
-    """[g(q), w_∂(q), z_p(q)]: everything the KKT rows differentiate."""
-    kin = _kin(layout, p, q)
-    zp = chain.load_height(layout, p.geometry, kin, kin_ref)
-    return jnp.concatenate([kin.guides, _gaps(layout, p, kin), zp[None]])
 
 
 def kkt_jacobian(layout: TubeLayout, p: ModelParams, z: Array, load: Load) -> Array:
@@ -290,19 +278,17 @@ def kkt_jacobian(layout: TubeLayout, p: ModelParams, z: Array, load: Load) -> Ar
          [D_w C,    0,   D_λ,          0 ],
          [d aᵀ,     0,   0,        1 − d ]]
 
-    K = ∇²_q L (autodiff Hessian over the n_q coordinates), [G; C; aᵀ] the autodiff Jacobian
-    of (g, w_∂, z_p), D_w = diag(ŵ/ρ − 1), D_λ = diag(c (ŵ/ρ − 1) + λ/ρ − 1),
-    ρ = √(ŵ² + λ² + ε²), ŵ = w + c λ (c: ``ModelOptions.contact_compliance``).
-    Cheaper to compile and run than differentiating the residual over all unknowns.
+    K = ∇²_q L, the sum of the elements' local Hessians (:func:`biplan.elements.local_terms`)
+    and (μd − F) ∇²z_p of the chain; G, C the elements' constraint Jacobians, a = ∇z_p;
+    D_w = diag(ŵ/ρ − 1), D_λ = diag(c (ŵ/ρ − 1) + λ/ρ − 1), ρ = √(ŵ² + λ² + ε²), ŵ = w + c λ
+    (c: ``ModelOptions.contact_compliance``).
     """
-    nq, ng, nc = _sizes(layout)
-    q, _lam, lam_c, _mu = _split(layout, z)
-    kin_ref = jax.lax.stop_gradient(_reference_load_point(layout, p))
-    rest = z[nq:]
-    k = jax.hessian(lambda qq: lagrangian(layout, p, jnp.concatenate([qq, rest]), load, kin_ref))(q)
-    jc = jax.jacfwd(lambda qq: _constraint_values(layout, p, qq, kin_ref))(q)
-    w = _constraint_values(layout, p, q, kin_ref)[ng : ng + nc] + p.compliance * lam_c
-    g_mat, c_mat, a = jc[:ng], jc[ng : ng + nc], jc[-1]
+    _, ng, nc = _sizes(layout)
+    local, chain_part, coef, _ = _terms(layout, p, z, load, second_order=True)
+    _, _, lam_c, _ = _split(layout, z)
+    k = _lagrangian_hessian(p, local, chain_part, coef)
+    g_mat, c_mat, a = local.guide_jacobian, local.gap_jacobian, chain_part.gradient
+    w = local.gaps + p.compliance * lam_c
     rho = jnp.sqrt(w**2 + lam_c**2 + p.smoothing**2)
     d = load.displacement_control
     zeros = jnp.zeros
@@ -336,23 +322,18 @@ class StateData(NamedTuple):
 
 def state_data(layout: TubeLayout, p: ModelParams, z: Array, load: Load) -> StateData:
     """Energy split, endpoint, Lagrangian Hessian and constraint Jacobians at z."""
-    nq, _ng, _nc = _sizes(layout)
-    q = z[:nq]
-    kin_ref = jax.lax.stop_gradient(_reference_load_point(layout, p))
-    kin = _kin(layout, p, q)
-    helical, circ = _energies(layout, p, kin)
-    rest = z[nq:]
-    k = jax.hessian(lambda qq: lagrangian(layout, p, jnp.concatenate([qq, rest]), load, kin_ref))(q)
-    jc = jax.jacfwd(lambda qq: _constraint_values(layout, p, qq, kin_ref))(q)
+    local, chain_part, coef, q = _terms(layout, p, z, load, second_order=True)
     return StateData(
-        energy=helical.sum() + circ.sum(),
-        helical_energy=helical,
-        circular_energy=circ,
-        load_displacement=chain.load_height(layout, p.geometry, kin, kin_ref),
+        energy=local.helical_energy.sum() + local.circular_energy.sum(),
+        helical_energy=local.helical_energy,
+        circular_energy=local.circular_energy,
+        load_displacement=chain_part.value,
         endpoint=chain.endpoint(layout, p.geometry, q),
-        lagrangian_hessian=k,
-        constraint_jacobian=jc,
-        gaps=_gaps(layout, p, kin),
+        lagrangian_hessian=_lagrangian_hessian(p, local, chain_part, coef),
+        constraint_jacobian=jnp.concatenate(
+            [local.guide_jacobian, local.gap_jacobian, chain_part.gradient[None]]
+        ),
+        gaps=local.gaps,
     )
 
 
@@ -405,11 +386,13 @@ def kernels(layout: TubeLayout) -> Kernels:
     L = layout
 
     def lag_hess(p: ModelParams, z: Array, load: Load) -> Array:
-        nq = L.n_coordinates
-        kin_ref = _reference_load_point(L, p)
-        return jax.hessian(
-            lambda qq: lagrangian(L, p, jnp.concatenate([qq, z[nq:]]), load, kin_ref)
-        )(z[:nq])
+        local, chain_part, coef, _ = _terms(L, p, z, load, second_order=True)
+        return _lagrangian_hessian(p, local, chain_part, coef)
+
+    def unloaded(p: ModelParams, q: Array) -> elements.LocalTerms:
+        """Local terms with zero multipliers: energy Hessian and constraint Jacobians."""
+        _, ng, nc = _sizes(L)
+        return elements.local_terms(L, p, q, jnp.zeros(ng), jnp.zeros(nc))
 
     def res(p: ModelParams, z: Array, load: Load) -> Array:
         return residual(L, p, z, load)
@@ -432,15 +415,11 @@ def kernels(layout: TubeLayout) -> Kernels:
         energy=_store(functools.partial(energy, L), "energy"),
         fold_energies=_store(functools.partial(fold_energies, L), "fold_energies"),
         gradient=_store(jax.grad(functools.partial(energy, L), argnums=1), "gradient"),
-        hessian=_store(jax.hessian(functools.partial(energy, L), argnums=1), "hessian"),
+        hessian=_store(lambda p, q: unloaded(p, q).hessian, "hessian"),
         guides=_store(guides, "guides"),
-        guide_jacobian=_store(
-            jax.jacfwd(functools.partial(guide_values, L), argnums=1), "guide_jacobian"
-        ),
+        guide_jacobian=_store(lambda p, q: unloaded(p, q).guide_jacobian, "guide_jacobian"),
         contact_gaps=_store(gaps, "contact_gaps"),
-        contact_jacobian=_store(
-            jax.jacfwd(functools.partial(contact_gaps, L), argnums=1), "contact_jacobian"
-        ),
+        contact_jacobian=_store(lambda p, q: unloaded(p, q).gap_jacobian, "contact_jacobian"),
         residual=_store(res, "residual"),
         jacobian=_store(functools.partial(kkt_jacobian, L), "jacobian"),
         jacobian_autodiff=_store(jax.jacfwd(res, argnums=1), "jacobian_autodiff"),

@@ -45,7 +45,10 @@ __all__ = [
     "Kinematics",
     "endpoint",
     "kinematics",
+    "line_height",
     "load_height",
+    "load_point_of_edge",
+    "reference_frames",
     "tables",
     "wrap_to_cylinder",
 ]
@@ -150,7 +153,9 @@ class Kinematics(NamedTuple):
     frames: Array  # (N, 3, 3)
 
 
-def _refs(layout: TubeLayout, geom: GeometryParams) -> tuple[Array, Array, Array]:
+def reference_frames(layout: TubeLayout, geom: GeometryParams) -> tuple[Array, Array, Array]:
+    """Reference nodes (N, 7, 2) [mm], crease tangents n_c (N, 2) and opening normals n_sp
+    (N, 2) of every module, in its own frame."""
     h, h1, _, _ = spans(geom.radius, geom.pitch, geom.beta)
     nodes, ncs, nsps = [], [], []
     for shape in layout.shapes:
@@ -161,7 +166,7 @@ def _refs(layout: TubeLayout, geom: GeometryParams) -> tuple[Array, Array, Array
     return jnp.stack(nodes), jnp.stack(ncs), jnp.stack(nsps)
 
 
-def _line_height(qm: Array, ref: Array, el: Array, z_edge: Array, s: Array) -> Array:
+def line_height(qm: Array, ref: Array, el: Array, z_edge: Array, s: Array) -> Array:
     """z at circumferential position s of the edge line z = z_edge of element ``el``."""
     pivot = jnp.where(el == 0, ref[PIVOT[0]], ref[PIVOT[1]])
     phi = jnp.where(el == 0, qm[1], qm[2])
@@ -192,7 +197,7 @@ def kinematics(layout: TubeLayout, geom: GeometryParams, q: Array) -> Kinematics
     t = tables(layout)
     n = layout.n_modules
     h, h1, h2, a = spans(geom.radius, geom.pitch, geom.beta)
-    ref, n_c, n_sp = _refs(layout, geom)
+    ref, n_c, n_sp = reference_frames(layout, geom)
     qm = q[: 3 * n].reshape(n, 3)
     gam = q[3 * n :]
     local = jax.vmap(node_positions)(qm, ref)
@@ -201,10 +206,10 @@ def kinematics(layout: TubeLayout, geom: GeometryParams, q: Array) -> Kinematics
 
     if layout.n_connectors:
         s_val = jnp.stack([0.0 * h, h1, h2, h])[t.pt_s]
-        z_up = jax.vmap(_line_height)(
+        z_up = jax.vmap(line_height)(
             qm[t.pt_up_mod], ref[t.pt_up_mod], t.pt_up_el, jnp.zeros_like(s_val), s_val
         )
-        z_lo_line = jax.vmap(_line_height)(
+        z_lo_line = jax.vmap(line_height)(
             qm[t.pt_lo_mod], ref[t.pt_lo_mod], t.pt_lo_el, geom.pitch + 0.0 * s_val, s_val
         )
         z_lo = jnp.where(t.pt_lo_rigid, t.pt_lo_height * geom.pitch, z_lo_line)
@@ -334,7 +339,12 @@ def endpoint(layout: TubeLayout, geom: GeometryParams, q: Array) -> Endpoint:
 
 
 def _load_point(layout: TubeLayout, geom: GeometryParams, kin: Kinematics) -> Array:
-    segs = end_edge_points(layout, kin)
+    return load_point_of_edge(layout, geom, end_edge_points(layout, kin))
+
+
+def load_point_of_edge(layout: TubeLayout, geom: GeometryParams, segs: Array) -> Array:
+    """Axial position z [mm] of the load point (MODEL CHOICE W1) on the free-end edge,
+    given as its segments' global end points (n_segments, 2, 2)."""
     point = layout.options.load_point
     if point is LoadPoint.CENTROID:
         return _edge_stats(segs)[0]
