@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import functools
+import json
 import os
 import subprocess
 import sys
@@ -208,3 +209,29 @@ def test_release_compiled_kernels_drops_the_stored_executables(store) -> None:
     assert kernel._cache_size() == 0
     np.testing.assert_allclose(kernel(params, x).value, 3.0 ** (1 / 3), rtol=1e-15)
     assert kernel._cache_size() == 1
+
+
+def test_an_entry_holds_no_pickle_and_names_only_loaded_namedtuples(store) -> None:
+    """An entry is magic bytes, a JSON description of the output structure and the serialized
+    export: no pickle. A description naming a class no loaded module defines is not read."""
+    params, x = {"c": jnp.asarray(3.0)}, np.ones(2)
+    stored_jit(_cubic, "cubic")(params, x)
+    (entry,) = store.glob("cubic-*.kernel")
+    data = entry.read_bytes()
+    assert data.startswith(_kernels._MAGIC)
+    assert b"\x80\x04" not in data[:16]  # not a pickle stream
+    size = int.from_bytes(data[8:16], "big")
+    described = json.loads(data[16 : 16 + size])
+    assert described == {"namedtuple": f"{__name__}:Pair", "of": ["*", "*"]}
+    tree = jax.tree_util.tree_structure(Pair(0.0, 0.0))
+    assert _kernels.tree_of_description(described) == tree
+    nested = {"a": (1.0, [2.0, None]), "b": Pair(3.0, 4.0)}
+    treedef = jax.tree_util.tree_structure(nested)
+    assert _kernels.tree_of_description(_kernels.describe_tree(treedef)) == treedef
+    # a class that no imported module defines (e.g. a planted entry) is never resolved
+    text = json.dumps({"namedtuple": "os:system", "of": ["*"]}).encode()
+    entry.write_bytes(data[:8] + len(text).to_bytes(8, "big") + text + data[16 + size :])
+    assert _kernels._read(entry) is None
+    # and the kernel is then exported again, giving the same numbers
+    again = stored_jit(_cubic, "cubic")(params, x)
+    np.testing.assert_allclose(again.value, 3.0 ** (1 / 3), rtol=1e-15)

@@ -17,9 +17,14 @@ the JAX and jaxlib versions, the backend, and a fingerprint of biplan's own sour
 an edited or upgraded biplan never reads a stale kernel. The store follows the compilation
 cache: ``BIPLAN_JAX_CACHE=off`` turns both off; ``BIPLAN_KERNEL_STORE=off`` turns off only
 the store. A kernel that cannot be exported (or an unreadable entry) falls back to plain
-``jax.jit`` (or is exported again), so the store can only save time. Entries are pickles (the
-serialised module and the output's pytree structure): trust the folder as you trust the
-compilation cache beside it, which holds executable code.
+``jax.jit`` (or is exported again), so the store can only save time. An entry holds no
+pickle: it is ``jax.export``'s serialized StableHLO module and a JSON description of the
+output's pytree structure (tuples, lists, dicts, None and NamedTuples named by module and
+class; :func:`describe_tree`), read back by looking the classes up among the modules the
+process has already imported — loading an entry imports nothing and calls no code but the
+NamedTuple constructors, so a store in a shared folder cannot run Python code. (The JAX
+compilation cache beside it holds compiled executables: trust that folder as you trust
+any cache of native code.)
 """
 
 from __future__ import annotations
@@ -27,8 +32,9 @@ from __future__ import annotations
 import contextlib
 import functools
 import hashlib
+import json
 import os
-import pickle
+import sys
 import tempfile
 import threading
 import time
@@ -46,7 +52,7 @@ __all__ = ["StoredKernel", "kernel_store", "stored_jit"]
 
 _OFF = {"", "0", "off", "none", "false"}  # as BIPLAN_JAX_CACHE, plus "false"
 #: Bumped when the entry format changes.
-_FORMAT = 1
+_FORMAT = 2
 
 
 def kernel_store() -> Path | None:
@@ -237,23 +243,104 @@ def _entry_lock(file: Path) -> Iterator[None]:
         os.close(fd)  # releases the lock
 
 
+#: First bytes of an entry file (format version included).
+_MAGIC = b"BIPLANK2"
+
+
+class _Leaf:
+    """Placeholder leaf of a pytree skeleton."""
+
+
+_LEAF = _Leaf()
+
+
+def describe_tree(treedef: Any) -> Any:
+    """A plain (JSON-ready) description of a pytree structure: tuples, lists, dicts with
+    string keys, None, and NamedTuples (by module and qualified name). Raises ``TypeError``
+    for any other node type (such a kernel is not stored)."""
+
+    def walk(node: Any) -> Any:
+        if node is _LEAF:
+            return "*"
+        if node is None:
+            return None
+        if isinstance(node, tuple) and hasattr(type(node), "_fields"):
+            cls = type(node)
+            return {
+                "namedtuple": f"{cls.__module__}:{cls.__qualname__}",
+                "of": [walk(x) for x in node],
+            }
+        if isinstance(node, tuple | list):
+            return {type(node).__name__: [walk(x) for x in node]}
+        if isinstance(node, dict) and all(isinstance(k, str) for k in node):
+            return {"dict": [[k, walk(v)] for k, v in node.items()]}
+        raise TypeError(f"pytree node {type(node).__name__} has no plain description")
+
+    return walk(jax.tree_util.tree_unflatten(treedef, [_LEAF] * treedef.num_leaves))
+
+
+def _namedtuple_class(name: str) -> type:
+    """A NamedTuple class of a module this process has already imported (nothing is
+    imported, nothing but the class's own constructor is ever called)."""
+    module, _, qualname = name.partition(":")
+    obj: Any = sys.modules.get(module)
+    for part in qualname.split("."):
+        obj = getattr(obj, part, None)
+    if not (isinstance(obj, type) and issubclass(obj, tuple) and hasattr(obj, "_fields")):
+        raise ValueError(f"{name} is not a loaded NamedTuple class")
+    return obj
+
+
+def tree_of_description(description: Any) -> Any:
+    """The pytree structure (``PyTreeDef``) described by :func:`describe_tree`."""
+
+    def build(d: Any) -> Any:
+        if d == "*":
+            return 0.0
+        if d is None:
+            return None
+        if "namedtuple" in d:
+            return _namedtuple_class(d["namedtuple"])(*(build(x) for x in d["of"]))
+        ((kind, value),) = d.items()
+        if kind == "tuple":
+            return tuple(build(x) for x in value)
+        if kind == "list":
+            return [build(x) for x in value]
+        if kind == "dict":
+            return {k: build(v) for k, v in value}
+        raise ValueError(f"unknown pytree node {kind!r}")
+
+    return jax.tree_util.tree_structure(build(description))
+
+
 def _read(file: Path) -> tuple[Any, Any] | None:
-    """The stored (exported kernel, output pytree structure), or None."""
+    """The stored (exported kernel, output pytree structure), or None (missing, damaged,
+    another format, or naming a class this process has not loaded)."""
     try:
-        with open(file, "rb") as f:
-            blob, out_tree = pickle.load(f)
-        return jax.export.deserialize(bytearray(blob)), out_tree
+        data = file.read_bytes()
+        if not data.startswith(_MAGIC):
+            return None
+        size = int.from_bytes(data[len(_MAGIC) : len(_MAGIC) + 8], "big")
+        start = len(_MAGIC) + 8
+        out_tree = tree_of_description(json.loads(data[start : start + size]))
+        return jax.export.deserialize(bytearray(data[start + size :])), out_tree
     except Exception:
         return None
 
 
 def _write(file: Path, entry: tuple[bytes, Any]) -> None:
-    """Write atomically (another process may read the same entry meanwhile)."""
+    """Write atomically (another process may read the same entry meanwhile): the magic bytes,
+    the JSON description of the output structure with its length, the serialized export."""
+    blob, out_tree = entry
+    try:
+        text = json.dumps(describe_tree(out_tree)).encode()
+    except TypeError:  # an output this format cannot describe: not stored
+        return
     try:
         file.parent.mkdir(parents=True, exist_ok=True)
         fd, tmp = tempfile.mkstemp(dir=file.parent, suffix=".tmp")
         with os.fdopen(fd, "wb") as f:
-            pickle.dump(entry, f)
+            f.write(_MAGIC + len(text).to_bytes(8, "big") + text + blob)
         os.replace(tmp, file)
     except OSError:  # read-only cache: run without storing
         pass
