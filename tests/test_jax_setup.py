@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import os
+import subprocess
 import sys
 
 import numpy as np
@@ -96,3 +97,30 @@ def test_a_load_reaches_a_kernel_with_one_input_type(model1):
     assert model1.kernels.residual._cache_size() == 1
     batch = Load(np.zeros(3), np.zeros(3), np.zeros(3)).for_kernel()
     assert all(v.shape == (3,) for v in batch)
+
+
+def test_import_help_and_version_load_no_jax():
+    """``import biplan``, ``biplan --help`` and ``biplan --version`` set no JAX state (JAX is
+    not even imported); the set-up runs on first use of the core and extends XLA_FLAGS."""
+    code = (
+        "import sys, biplan, biplan.cli.main\n"
+        "assert 'jax' not in sys.modules, 'jax imported'\n"
+        "from biplan.cli.main import main\n"
+        "for argv in (['--help'], ['--version']):\n"
+        "    try:\n"
+        "        main(argv)\n"
+        "    except SystemExit as e:\n"
+        "        assert e.code in (0, None), e.code\n"
+        "assert 'jax' not in sys.modules, 'jax imported by the CLI'\n"
+        "import os\n"
+        "biplan.Model\n"
+        "import jax.numpy as jnp\n"
+        "assert jnp.ones(1).dtype == jnp.float64\n"
+        "flags = os.environ['XLA_FLAGS']\n"
+        "assert flags.startswith('--xla_cpu_multi_thread_eigen=true '), flags\n"
+        "assert 'multi_thread_eigen=false' not in flags, flags\n"
+        "assert '--xla_cpu_experimental_ynn_fusion_type=' in flags, flags\n"
+    )
+    env = dict(os.environ, XLA_FLAGS="--xla_cpu_multi_thread_eigen=true")
+    out = subprocess.run([sys.executable, "-c", code], env=env, capture_output=True, text=True)
+    assert out.returncode == 0, out.stderr[-2000:]

@@ -13,43 +13,100 @@ Quick start::
     print(sol.force, biplan.classify(model, sol).verdict)
 """
 
+from importlib import import_module
 from importlib.metadata import PackageNotFoundError, version
+from typing import TYPE_CHECKING, Any
 
-from biplan import _jax  # noqa: F401  (float64 + compilation cache before anything else)
-from biplan import designs as designs
-from biplan._errors import BiplanError as BiplanError
-from biplan._errors import ConfigError as ConfigError
-from biplan._errors import ConvergenceError as ConvergenceError
-from biplan.analysis.stability import Stability as Stability
-from biplan.analysis.stability import Verdict as Verdict
-from biplan.analysis.stability import classify as classify
-from biplan.analysis.stability import reduced_hessian as reduced_hessian
-from biplan.assembly import Load as Load
-from biplan.assembly import Model as Model
-from biplan.geometry import Development as Development
-from biplan.geometry import FoldRef as FoldRef
-from biplan.geometry import Tube as Tube
-from biplan.io.config import load_config as load_config
-from biplan.laws import LinearLaw as LinearLaw
-from biplan.laws import TransitionReading as TransitionReading
-from biplan.laws import TrilinearLaw as TrilinearLaw
-from biplan.options import ModelOptions as ModelOptions
-from biplan.solvers import ArcLength as ArcLength
-from biplan.solvers import Control as Control
-from biplan.solvers import GeneralizedAlpha as GeneralizedAlpha
-from biplan.solvers import LoadHistory as LoadHistory
-from biplan.solvers import LoadStepping as LoadStepping
-from biplan.solvers import Newton as Newton
-from biplan.solvers import Path as Path
-from biplan.solvers import PathStatus as PathStatus
-from biplan.solvers import Solution as Solution
-from biplan.solvers import Status as Status
-from biplan.solvers import Trajectory as Trajectory
-from biplan.solvers import TrajectoryStatus as TrajectoryStatus
-from biplan.solvers import integrate as integrate
-from biplan.solvers import relaxed_reference as relaxed_reference
-from biplan.solvers import solve_equilibrium as solve_equilibrium
-from biplan.solvers import trace_path as trace_path
+if TYPE_CHECKING:
+    from biplan import designs as designs
+    from biplan._errors import BiplanError as BiplanError
+    from biplan._errors import ConfigError as ConfigError
+    from biplan._errors import ConvergenceError as ConvergenceError
+    from biplan.analysis.stability import Stability as Stability
+    from biplan.analysis.stability import Verdict as Verdict
+    from biplan.analysis.stability import classify as classify
+    from biplan.analysis.stability import reduced_hessian as reduced_hessian
+    from biplan.assembly import Load as Load
+    from biplan.assembly import Model as Model
+    from biplan.geometry import Development as Development
+    from biplan.geometry import FoldRef as FoldRef
+    from biplan.geometry import Tube as Tube
+    from biplan.io.config import load_config as load_config
+    from biplan.laws import LinearLaw as LinearLaw
+    from biplan.laws import TransitionReading as TransitionReading
+    from biplan.laws import TrilinearLaw as TrilinearLaw
+    from biplan.options import ModelOptions as ModelOptions
+    from biplan.solvers import ArcLength as ArcLength
+    from biplan.solvers import Control as Control
+    from biplan.solvers import GeneralizedAlpha as GeneralizedAlpha
+    from biplan.solvers import LoadHistory as LoadHistory
+    from biplan.solvers import LoadStepping as LoadStepping
+    from biplan.solvers import Newton as Newton
+    from biplan.solvers import Path as Path
+    from biplan.solvers import PathStatus as PathStatus
+    from biplan.solvers import Solution as Solution
+    from biplan.solvers import Status as Status
+    from biplan.solvers import Trajectory as Trajectory
+    from biplan.solvers import TrajectoryStatus as TrajectoryStatus
+    from biplan.solvers import integrate as integrate
+    from biplan.solvers import relaxed_reference as relaxed_reference
+    from biplan.solvers import solve_equilibrium as solve_equilibrium
+    from biplan.solvers import trace_path as trace_path
+
+#: Public name → the module that defines it. Imported on first access (PEP 562), so that
+#: ``import biplan`` loads neither JAX nor the model and sets no process-wide state; the JAX
+#: set-up (:func:`biplan._jax.configure`) runs when the numerical core is first imported.
+_EXPORTS = {
+    "BiplanError": "biplan._errors",
+    "ConfigError": "biplan._errors",
+    "ConvergenceError": "biplan._errors",
+    "Stability": "biplan.analysis.stability",
+    "Verdict": "biplan.analysis.stability",
+    "classify": "biplan.analysis.stability",
+    "reduced_hessian": "biplan.analysis.stability",
+    "Load": "biplan.assembly",
+    "Model": "biplan.assembly",
+    "Development": "biplan.geometry",
+    "FoldRef": "biplan.geometry",
+    "Tube": "biplan.geometry",
+    "load_config": "biplan.io.config",
+    "LinearLaw": "biplan.laws",
+    "TransitionReading": "biplan.laws",
+    "TrilinearLaw": "biplan.laws",
+    "ModelOptions": "biplan.options",
+    "ArcLength": "biplan.solvers",
+    "Control": "biplan.solvers",
+    "GeneralizedAlpha": "biplan.solvers",
+    "LoadHistory": "biplan.solvers",
+    "LoadStepping": "biplan.solvers",
+    "Newton": "biplan.solvers",
+    "Path": "biplan.solvers",
+    "PathStatus": "biplan.solvers",
+    "Solution": "biplan.solvers",
+    "Status": "biplan.solvers",
+    "Trajectory": "biplan.solvers",
+    "TrajectoryStatus": "biplan.solvers",
+    "integrate": "biplan.solvers",
+    "relaxed_reference": "biplan.solvers",
+    "solve_equilibrium": "biplan.solvers",
+    "trace_path": "biplan.solvers",
+}
+
+
+def __getattr__(name: str) -> Any:
+    if name == "designs":
+        return import_module("biplan.designs")
+    module = _EXPORTS.get(name)
+    if module is None:
+        raise AttributeError(f"module 'biplan' has no attribute {name!r}")
+    value = getattr(import_module(module), name)
+    globals()[name] = value
+    return value
+
+
+def __dir__() -> list[str]:
+    return sorted(__all__)
+
 
 try:
     __version__ = version("biplan")

@@ -1,8 +1,10 @@
 """JAX set-up shared by every layer: float64 on, persistent compilation cache.
 
-Importing this module enables ``jax_enable_x64`` (all energies are float64) and points JAX's
-persistent compilation cache at ``$BIPLAN_JAX_CACHE`` (default ``~/.cache/biplan/jax``) so
-that kernels compiled in one process are reused by the next (cold-start time is user time).
+:func:`configure` (run once, when this module is first imported by biplan's numerical core;
+``import biplan`` alone does not import it) enables ``jax_enable_x64`` (all energies are
+float64) and points JAX's persistent compilation cache at ``$BIPLAN_JAX_CACHE`` (default
+``~/.cache/biplan/jax``) so that kernels compiled in one process are reused by the next
+(cold-start time is user time).
 Set ``BIPLAN_JAX_CACHE=off`` to disable the cache. Reads and writes of the cache are file-locked
 (``filelock``), so processes running at once (Dask workers, test workers) can share it.
 
@@ -38,19 +40,13 @@ import os
 from collections.abc import Callable
 from pathlib import Path
 
+import jax
+
 _ON = {"on", "1", "true"}
-_flags = os.environ.get("XLA_FLAGS", "")
-_wanted = ["--xla_cpu_experimental_ynn_fusion_type="]
-if os.environ.get("BIPLAN_EIGEN_THREADS", "").lower() not in _ON:
-    _wanted.append("--xla_cpu_multi_thread_eigen=false")
-for _flag in _wanted:  # a flag the user set wins
-    if _flag.split("=")[0].removeprefix("--") not in _flags:
-        _flags += " " + _flag
-os.environ["XLA_FLAGS"] = _flags.strip()
 
-import jax  # noqa: E402
-
-jax.config.update("jax_enable_x64", True)
+#: The persistent compilation cache's folder (None: off, not writable, or not configured yet).
+CACHE_DIR: Path | None = None
+_CONFIGURED = False
 
 
 def _stamp_unlocked_entries(path: Path) -> None:
@@ -68,28 +64,59 @@ def _stamp_unlocked_entries(path: Path) -> None:
             atime.write_bytes(stamp)
 
 
-#: The persistent compilation cache's folder (None: off or not writable).
-CACHE_DIR: Path | None = None
-_cache = os.environ.get("BIPLAN_JAX_CACHE", str(Path.home() / ".cache" / "biplan" / "jax"))
-if _cache.lower() not in {"", "0", "off", "none"}:
+def configure() -> None:
+    """Apply biplan's JAX set-up, once per process: the only place biplan sets global state.
+
+    Called when biplan's numerical core is first imported (any module that computes imports
+    this one); ``import biplan`` alone, ``biplan --help`` and ``biplan --version`` do not
+    call it. It
+
+    * extends ``XLA_FLAGS`` with the two flags of the module docstring (a flag the user set
+      is kept, never overwritten; XLA reads them when JAX starts its CPU backend, so they
+      apply if no JAX computation ran before);
+    * turns on float64 (``jax_enable_x64``): every biplan energy is float64;
+    * points JAX's persistent compilation cache at ``$BIPLAN_JAX_CACHE`` (default
+      ``~/.cache/biplan/jax``; ``off`` disables it), unless the user configured a cache
+      directory of their own.
+    """
+    global CACHE_DIR, _CONFIGURED
+    if _CONFIGURED:
+        return
+    _CONFIGURED = True
+    flags = os.environ.get("XLA_FLAGS", "")
+    wanted = ["--xla_cpu_experimental_ynn_fusion_type="]
+    if os.environ.get("BIPLAN_EIGEN_THREADS", "").lower() not in _ON:
+        wanted.append("--xla_cpu_multi_thread_eigen=false")
+    for flag in wanted:  # a flag the user set wins
+        if flag.split("=")[0].removeprefix("--") not in flags:
+            flags += " " + flag
+    os.environ["XLA_FLAGS"] = flags.strip()
+    jax.config.update("jax_enable_x64", True)
+    cache = os.environ.get("BIPLAN_JAX_CACHE", str(Path.home() / ".cache" / "biplan" / "jax"))
+    if cache.lower() in {"", "0", "off", "none"} or jax.config.jax_compilation_cache_dir:
+        return
     try:
-        Path(_cache).mkdir(parents=True, exist_ok=True)
-        jax.config.update("jax_compilation_cache_dir", _cache)
-        CACHE_DIR = Path(_cache)
+        Path(cache).mkdir(parents=True, exist_ok=True)
+        jax.config.update("jax_compilation_cache_dir", cache)
+        CACHE_DIR = Path(cache)
         jax.config.update("jax_persistent_cache_min_compile_time_secs", 0.1)
         jax.config.update("jax_persistent_cache_min_entry_size_bytes", 0)
         # A size limit turns on JAX's file lock around every cache read and write (without it
         # a process can read an entry that another — a Dask worker, a test worker — is still
         # writing). 8 GiB: far above what biplan's kernels need, least recently used evicted.
         jax.config.update("jax_compilation_cache_max_size", 8 * 2**30)
-        _stamp_unlocked_entries(Path(_cache))
+        _stamp_unlocked_entries(Path(cache))
     except OSError:  # read-only home: run without the persistent cache
         CACHE_DIR = None
 
-import jax.numpy as jnp  # noqa: E402
+
+configure()
+
+import jax.numpy as jnp  # noqa: E402  (after configure: float64 arrays)
 
 __all__ = [
     "CACHE_DIR",
+    "configure",
     "CHEAP_PIPELINE",
     "jax",
     "jnp",

@@ -1,8 +1,6 @@
-"""Analysis: stability, state enumeration, transition graphs, sweeps, calibration."""
+"""Analysis: stability, state enumeration, transition graphs, sweeps, calibration.
 
-from biplan.analysis.stability import Stability as Stability
-from biplan.analysis.stability import Verdict as Verdict
-from biplan.analysis.stability import classify as classify
-from biplan.analysis.stability import reduced_hessian as reduced_hessian
-
-__all__ = ["Stability", "Verdict", "classify", "reduced_hessian"]
+The package itself imports nothing, so that light modules of it (``analysis.response``) load
+without JAX; the stability API is :mod:`biplan.analysis.stability` (also ``biplan.classify``,
+``biplan.reduced_hessian``, ``biplan.Stability``, ``biplan.Verdict``).
+"""
