@@ -93,7 +93,9 @@ def configure() -> None:
     os.environ["XLA_FLAGS"] = flags.strip()
     jax.config.update("jax_enable_x64", True)
     cache = os.environ.get("BIPLAN_JAX_CACHE", str(Path.home() / ".cache" / "biplan" / "jax"))
-    if cache.lower() in {"", "0", "off", "none"} or jax.config.read("jax_compilation_cache_dir"):
+    if cache.lower() in {"", "0", "off", "none"} or getattr(
+        jax.config, "jax_compilation_cache_dir", None
+    ):
         return
     try:
         Path(cache).mkdir(parents=True, exist_ok=True)
