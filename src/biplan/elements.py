@@ -303,7 +303,7 @@ def _evaluate(lagrangian: Any, values: Any, second_order: bool) -> Any:
     derivatives are None unless ``second_order``)."""
 
     def first(x: Array, *args: Any) -> tuple[tuple[Array, Array], tuple[Array, Array, Array]]:
-        grad = jax.grad(lagrangian)(x, *args)
+        grad = jax.jacfwd(lagrangian)(x, *args)
         rows, extras = values(x, *args)
         return (grad, rows), (grad, rows, extras)
 
@@ -425,4 +425,4 @@ def chain_terms(
     """z_p with its gradient and (optionally) Hessian, by autodiff of the chain alone."""
     fn = functools.partial(load_point_height, layout, geom)
     value, gradient = jax.value_and_grad(fn)(q)
-    return ChainTerms(value, gradient, jax.hessian(fn)(q) if second_order else None)
+    return ChainTerms(value, gradient, jax.jacfwd(jax.jacfwd(fn))(q) if second_order else None)
