@@ -77,6 +77,11 @@ class Topology(NamedTuple):
     gap_row_mask: np.ndarray  # (Nc, Gr) float 1/0
     lower: np.ndarray  # (Nc,) lower module (0 for the clamp: its rows never enter)
     upper: np.ndarray  # (Nc,)
+    module_place: np.ndarray  # (N, 3, n_q) one-hot placement of each module dof
+    connector_place: np.ndarray  # (Nc, 7, n_q) the same for connector dofs (clamp rows 0)
+    guide_place: np.ndarray  # (N, 2, 2N) guide rows
+    helical_gap_place: np.ndarray  # (N, 2, n_c) helical contact rows
+    gap_place: np.ndarray  # (Nc, Gr, n_c) connector contact rows (padding rows 0)
 
 
 def _pad(rows: list[list[Any]], fill: Any, dtype: Any) -> tuple[np.ndarray, np.ndarray]:
@@ -131,9 +136,14 @@ def topology(layout: TubeLayout) -> Topology:
     field_end, _ = _pad(fe, 0, np.int32)
     gap_point, gap_point_mask = _pad(gp, 0, np.int32)
     gap_row, gap_row_mask = _pad(gr, 0, np.int32)
+    connector_dofs = np.asarray(dofs, dtype=np.int32).reshape(nc, CONNECTOR_DOFS)
+    clamp = np.asarray([c.lower is None for c in layout.connectors], dtype=bool)
+    dof_mask = np.ones((nc, CONNECTOR_DOFS))
+    dof_mask[clamp, :3] = 0.0
+    nq, rows = layout.n_coordinates, np.arange(2 * n).reshape(n, 2)
     return Topology(
         module_dofs,
-        np.asarray(dofs, dtype=np.int32).reshape(nc, CONNECTOR_DOFS),
+        connector_dofs,
         point_s,
         point_ue,
         point_le,
@@ -148,7 +158,18 @@ def topology(layout: TubeLayout) -> Topology:
         gap_row_mask,
         np.asarray(lower, dtype=np.int32),
         np.asarray(upper, dtype=np.int32),
+        _one_hot(module_dofs, nq),
+        _one_hot(connector_dofs, nq, dof_mask),
+        _one_hot(rows, 2 * n),
+        _one_hot(rows, contact_row),
+        _one_hot(gap_row, contact_row, gap_row_mask),
     )
+
+
+def _one_hot(index: np.ndarray, size: int, mask: np.ndarray | None = None) -> np.ndarray:
+    """(…, size) one-hot rows of integer indices (zero rows where ``mask`` is 0)."""
+    out = (index[..., None] == np.arange(size)).astype(float)
+    return out if mask is None else out * mask[..., None]
 
 
 # --- element functions -------------------------------------------------------------------
@@ -292,9 +313,19 @@ def _connector_data(layout: TubeLayout, p: Any, ref: Array) -> ConnectorData:
     )
 
 
-def _scatter_matrix(shape: tuple[int, int], rows: Array, cols: Array, blocks: Array) -> Array:
-    """Sum of element blocks (E, r, c) at rows (E, r) × cols (E, c) of a zero matrix."""
-    return jnp.zeros(shape).at[rows[:, :, None], cols[:, None, :]].add(blocks)
+def _place_vector(place: Array, values: Array) -> Array:
+    """Σ_e of element vectors (E, k) placed by one-hot rows (E, k, n): an (n,) vector."""
+    return jnp.einsum("ek,ekn->n", values, place)
+
+
+def _place_matrix(rows: Array, blocks: Array, cols: Array) -> Array:
+    """Σ_e of element blocks (E, r, c) placed by one-hot rows (E, r, R) and cols (E, c, C).
+
+    Dense products with constant one-hot tables rather than a scatter: XLA:CPU runs a
+    scatter of many small blocks as a loop over them (slow, and much slower under ``vmap``),
+    while these are two matrix products.
+    """
+    return jnp.einsum("eri,erj->ij", rows, jnp.einsum("erc,ecj->erj", blocks, cols))
 
 
 def _evaluate(lagrangian: Any, values: Any, second_order: bool) -> Any:
@@ -338,8 +369,6 @@ def local_terms(
     """
     topo = topology(layout)
     n, nc = layout.n_modules, layout.n_connectors
-    nq = layout.n_coordinates
-    n_contacts = lam_c.shape[0]
     ref, n_c, n_sp, a = _module_arrays(layout, p)
     mult = jnp.concatenate([lam.reshape(n, 2), lam_c[: 2 * n].reshape(n, 2)], axis=1)
 
@@ -353,16 +382,16 @@ def local_terms(
     grad_m, cons_m, helical_energy, hess_m, jac_m = _evaluate(mod_lag, mod_values, second_order)(
         q[topo.module_dofs], mult, ref, n_c, n_sp, p.helical
     )
-    gradient = jnp.zeros(nq).at[topo.module_dofs].add(grad_m)
-    gaps = jnp.zeros(n_contacts).at[: 2 * n].set(cons_m[:, 2:].reshape(-1))
+    gradient = _place_vector(topo.module_place, grad_m)
+    gaps = _place_vector(topo.helical_gap_place, cons_m[:, 2:])
     hessian: Array = None
     guide_jac: Array = None
     gap_jac: Array = None
     if second_order:
-        rows = 2 * np.arange(n, dtype=np.int32)[:, None] + np.arange(2, dtype=np.int32)
-        hessian = _scatter_matrix((nq, nq), topo.module_dofs, topo.module_dofs, hess_m)
-        guide_jac = _scatter_matrix((2 * n, nq), rows, topo.module_dofs, jac_m[:, :2])
-        gap_jac = _scatter_matrix((n_contacts, nq), rows, topo.module_dofs, jac_m[:, 2:])
+        place = topo.module_place
+        hessian = _place_matrix(place, hess_m, place)
+        guide_jac = _place_matrix(topo.guide_place, jac_m[:, :2], place)
+        gap_jac = _place_matrix(topo.helical_gap_place, jac_m[:, 2:], place)
     circular_energy = jnp.zeros((0,))
 
     if nc:
@@ -380,13 +409,12 @@ def local_terms(
         grad_c, gaps_c, circular_energy, hess_c, jac_c = _evaluate(
             con_lag, con_values, second_order
         )(q[dofs], lam_c[gap_row] * topo.gap_row_mask, _connector_data(layout, p, ref))
-        gradient = gradient.at[dofs].add(grad_c)
-        gaps = gaps.at[gap_row].add(gaps_c * topo.gap_row_mask)
+        place = topo.connector_place
+        gradient = gradient + _place_vector(place, grad_c)
+        gaps = gaps + _place_vector(topo.gap_place, gaps_c)
         if second_order:
-            hessian = hessian.at[dofs[:, :, None], dofs[:, None, :]].add(hess_c)
-            gap_jac = gap_jac.at[gap_row[:, :, None], dofs[:, None, :]].add(
-                jac_c * topo.gap_row_mask[:, :, None]
-            )
+            hessian = hessian + _place_matrix(place, hess_c, place)
+            gap_jac = gap_jac + _place_matrix(topo.gap_place, jac_c, place)
     return LocalTerms(
         gradient,
         hessian,
@@ -425,4 +453,4 @@ def chain_terms(
     """z_p with its gradient and (optionally) Hessian, by autodiff of the chain alone."""
     fn = functools.partial(load_point_height, layout, geom)
     value, gradient = jax.value_and_grad(fn)(q)
-    return ChainTerms(value, gradient, jax.jacfwd(jax.jacfwd(fn))(q) if second_order else None)
+    return ChainTerms(value, gradient, jax.hessian(fn)(q) if second_order else None)
