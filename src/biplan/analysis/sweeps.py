@@ -24,7 +24,7 @@ from typing import Any, Protocol
 
 import numpy as np
 
-from biplan._errors import ConfigError
+from biplan._errors import ConfigError, check_integer
 from biplan.analysis.grid import QUANTITIES, Grid, GridAxis, apply_values, base_value, parse_axis
 from biplan.geometry import Tube
 
@@ -96,8 +96,7 @@ class ChunkSink(Protocol):
 
 def chunk_indices(grid: Grid, chunk_size: int) -> list[np.ndarray]:
     """Flat point indices of every chunk (the last one may be shorter)."""
-    if isinstance(chunk_size, bool) or not isinstance(chunk_size, int) or chunk_size < 1:
-        raise ConfigError("chunk_size", chunk_size, "an integer ≥ 1")
+    chunk_size = check_integer("chunk_size", chunk_size, low=1)
     return [
         np.arange(lo, min(lo + chunk_size, grid.size)) for lo in range(0, grid.size, chunk_size)
     ]
