@@ -65,7 +65,7 @@ class CftGeometry:
     n_folds: int = 1
 
     def __post_init__(self) -> None:
-        r = check_range("radius", self.radius, low=0.0)
+        r = check_range("radius", self.radius, low=0.0, unit="mm")
         object.__setattr__(self, "radius", r)
         object.__setattr__(self, "n_folds", check_integer("n_folds", self.n_folds, low=1))
 

@@ -396,11 +396,17 @@ def read_calibration_config(path: str | Path) -> tuple[CftGeometry, SpecimenForm
     units = {f"{k}_unit": v for k, v in data.get("units", {}).items()}
     try:
         geometry = CftGeometry(**geo)
+    except ConfigError as err:
+        raise ConfigError(f"{source}: geometry.{err.parameter}", err.value, err.valid) from None
+    try:
         fmt = SpecimenFormat(**cols, **units)
-    except (ConfigError, TypeError) as err:
-        raise ConfigError(
-            f"{source}: config", str(err), "valid geometry, columns and units"
-        ) from None
+    except ConfigError as err:
+        name = str(err.parameter)
+        if name.endswith("_unit"):
+            key = f"units.{name.removesuffix('_unit')}"
+        else:
+            key = f"columns.{name.removesuffix(' column')}"
+        raise ConfigError(f"{source}: {key}", err.value, err.valid) from None
     return geometry, fmt
 
 
