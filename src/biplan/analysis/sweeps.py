@@ -38,6 +38,7 @@ __all__ = [
     "apply_values",
     "assemble",
     "base_value",
+    "check_grid",
     "chunk_indices",
     "evaluate_chunk",
     "parse_axis",
@@ -208,6 +209,27 @@ def assemble(
     return evaluator.finish(ds)
 
 
+def check_grid(design: Tube, grid: Grid, quantity: Evaluator) -> None:
+    """Check every axis name and every design value of ``grid`` (what :func:`sweep` does
+    first, before solving anything).
+
+    Raises
+    ------
+    ConfigError
+        An axis that is neither a design quantity nor a load axis of ``quantity``, or a value
+        that gives no valid tube (named by its axis, e.g. ``b``).
+    """
+    for axis in grid.axes:
+        if axis.name not in QUANTITIES and axis.name not in quantity.load_axes:
+            raise ConfigError(
+                "grid axis", axis.name, f"one of {', '.join(QUANTITIES + quantity.load_axes)}"
+            )
+    for axis in grid.axes:
+        for v in axis.values:
+            if axis.name not in quantity.load_axes:
+                apply_values(design, {axis.name: v})
+
+
 def sweep(
     design: Tube,
     grid: Grid,
@@ -248,16 +270,7 @@ def sweep(
         Variables of ``quantity`` with dims (*grid axes, …), ``status`` per point, and the
         settings in the attributes.
     """
-    for axis in grid.axes:
-        if axis.name not in QUANTITIES and axis.name not in quantity.load_axes:
-            raise ConfigError(
-                "grid axis", axis.name, f"one of {', '.join(QUANTITIES + quantity.load_axes)}"
-            )
-    # validate every design before solving anything: an invalid grid is a ConfigError now
-    for axis in grid.axes:
-        for v in axis.values:
-            if axis.name not in quantity.load_axes:
-                apply_values(design, {axis.name: v})
+    check_grid(design, grid, quantity)
     chunks = chunk_indices(grid, chunk_size)
     results: dict[int, dict[str, np.ndarray]] = {}
     todo: list[tuple[int, np.ndarray]] = []
