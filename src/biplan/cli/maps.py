@@ -95,9 +95,7 @@ def run_map(
     ConvergenceError
         Every point of the map failed (after ``map.nc`` is written).
     """
-    check_integer("--workers", workers, low=1)
-    check_integer("--threads", threads, low=0, note=" (0: one per available core)")
-    output_directory(out)
+    _check_settings(out, workers, threads)
     from rich.progress import (
         BarColumn,
         MofNCompleteColumn,
@@ -179,6 +177,13 @@ def run_map(
     return ds
 
 
+def _check_settings(out: Path, workers: int, threads: int) -> None:
+    """``--out``, ``--workers`` and ``--threads`` (by the commands first, and by run_map)."""
+    output_directory(out)
+    check_integer("--workers", workers, low=1)
+    check_integer("--threads", threads, low=0, note=" (0: one per available core)")
+
+
 def _check_runner(
     ctx: typer.Context,
     out: Path,
@@ -188,11 +193,9 @@ def _check_runner(
     threads: int,
 ) -> None:
     """The checks of the options every map command shares, before anything is computed."""
-    output_directory(out)
+    _check_settings(out, workers, threads)
     if chunk_size is not None:
         check_integer("--chunk-size", chunk_size, low=1)
-    check_integer("--workers", workers, low=1)
-    check_integer("--threads", threads, low=0, note=" (0: one per available core)")
     if scheduler is not None:
         refuse_unused(ctx, {"workers": "--workers", "threads": "--threads"}, "with --scheduler")
     elif workers > 1:

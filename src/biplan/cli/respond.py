@@ -230,13 +230,14 @@ def _check_quasi_static(
         refuse_unused(ctx, {"max_step": "--max-step"}, "with --method stable")
         check_range("--step", step, low=0.0, unit="mm (the displacement per step)")
         top = DEFAULT_STOP[kind] if stop is None else stop
-        n = _stable_steps(top, step)
-        if n > max_steps:
+        ratio = abs(top) / step  # inf for a denormal step
+        if ratio > max_steps:
+            n = f"{math.ceil(ratio)} steps" if math.isfinite(ratio) else "too many steps"
             raise ConfigError(
                 "--step",
                 step,
                 f"≥ |--stop| / --max-steps = {abs(top) / max_steps:g} mm "
-                f"({n} steps to reach {top:g} mm; at most --max-steps {max_steps})",
+                f"({n} to reach {top:g} mm; at most --max-steps {max_steps})",
             )
         return
     check_range("--step", step, low=biplan.ArcLength.min_step)
