@@ -144,16 +144,18 @@ def test_biplan_error_is_a_red_message_not_a_traceback(
     assert "Traceback" not in err
 
 
-def test_usage_errors_exit_2(tmp_path: Path) -> None:
+def test_usage_errors_exit_2(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
     result = runner.invoke(app, ["demo", "--steps", "1", "--out", str(tmp_path)])
     assert result.exit_code == 2
     result = runner.invoke(app, ["demo", str(tmp_path / "missing.toml"), "--out", str(tmp_path)])
     assert result.exit_code == 2
     blocker = tmp_path / "a-file"
     blocker.write_text("")
-    result = runner.invoke(app, ["demo", "--out", str(blocker / "sub"), "--steps", "2"])
-    assert result.exit_code == 2
-    assert "--out" in result.output and "cannot create" in result.output
+    with pytest.raises(SystemExit) as exit_info:
+        main(["demo", "--out", str(blocker / "sub"), "--steps", "2"])
+    assert exit_info.value.code == EXIT_BIPLAN_ERROR
+    err = capsys.readouterr().err
+    assert "--out" in err and f"{blocker} is a file" in err and "Traceback" not in err
 
 
 def test_main_help_exits_0(capsys: pytest.CaptureFixture[str]) -> None:

@@ -84,7 +84,8 @@ def test_bad_grid_exits_with_the_parameter_named(
     ("option", "value", "needles"),
     [
         ("--threads", "-1", ("--threads", "-1")),
-        ("--after-snap", "jump", ("after_snap", "jump", "dynamic or stop")),
+        ("--after-snap", "jump", ("--after-snap", "jump", "dynamic or stop")),
+        ("--workers", "0", ("--workers", "0", "≥ 1")),
     ],
 )
 def test_bad_map_option_exits_with_the_setting_named(

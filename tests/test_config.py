@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import math
+import tomllib
 from pathlib import Path
 
 import pytest
@@ -358,3 +359,38 @@ def test_missing_file(tmp_path: Path) -> None:
         load_config(path)
     assert info.value.parameter == "path"
     assert str(path) in str(info.value)
+
+
+@pytest.mark.parametrize("path", [42, None, 3.5, ["a.toml"]])
+def test_load_config_of_a_non_path_is_a_config_error(path: object) -> None:
+    with pytest.raises(ConfigError, match="path") as info:
+        load_config(path)  # type: ignore[arg-type]
+    assert info.value.parameter == "path" and info.value.value == path
+
+
+def test_numpy_integers_are_integers() -> None:
+    """Counts given as NumPy integers (from an array, a grid) build the same objects as ints."""
+    import numpy as np
+
+    kwargs = {"radius": 2.0, "pitch": 3.6, "helical_angle": 60.0,
+              "helical": LinearLaw(1.3), "circular": LinearLaw(0.9)}  # fmt: skip
+    tube = Tube.uniform(n_modules=np.int64(4), **kwargs)
+    assert tube == Tube.uniform(n_modules=4, **kwargs) and type(tube.n_modules) is int
+    assert load_config_text(dump_config(tube)) == tube
+    fully = biplan.designs.fully_bistable(n_modules=np.int64(4))
+    assert fully == biplan.designs.fully_bistable() and type(fully.n_modules) is int
+    assert biplan.Newton(max_steps=np.int32(7)).max_steps == 7
+    assert biplan.ArcLength(max_steps=np.uint16(9)).max_steps == 9
+    data = tomllib.loads(BASE)
+    data["geometry"]["n_modules"] = np.int64(6)
+    assert tube_from_dict(data).n_modules == 6
+    for bad in (4.0, True, "4", np.float64(4.0)):
+        with pytest.raises(ConfigError, match="n_modules"):
+            Tube.uniform(n_modules=bad, **kwargs)
+
+
+@pytest.mark.parametrize("radius", [0.0, -2.0, float("nan")])
+def test_pressure_load_needs_a_positive_radius(radius: float) -> None:
+    with pytest.raises(ConfigError, match="radius") as info:
+        biplan.Load.of_pressure(0.1, radius=radius)
+    assert info.value.parameter == "radius"

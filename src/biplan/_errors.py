@@ -8,9 +8,17 @@ converge returns a status; with ``throw=True`` it raises :class:`ConvergenceErro
 from __future__ import annotations
 
 import math
+import numbers
 from typing import Any
 
-__all__ = ["BiplanError", "ConfigError", "ConvergenceError", "check_finite", "check_range"]
+__all__ = [
+    "BiplanError",
+    "ConfigError",
+    "ConvergenceError",
+    "check_finite",
+    "check_integer",
+    "check_range",
+]
 
 
 class BiplanError(Exception):
@@ -60,14 +68,24 @@ def check_range(
     high: float | None = None,
     low_open: bool = True,
     high_open: bool = True,
+    unit: str = "",
 ) -> float:
-    """Check that ``value`` is finite and inside the given (open or closed) interval."""
+    """Return ``float(value)`` if it is finite and inside the given (open or closed) interval,
+    else raise :class:`ConfigError` naming ``name``, the value and the interval (``> 0``,
+    ``≥ 1``, ``in (0, 1]``…, followed by ``unit``)."""
     x = check_finite(name, value)
-    lo_txt = "(" if low_open else "["
-    hi_txt = ")" if high_open else "]"
-    interval = (
-        f"in {lo_txt}{'-inf' if low is None else low}, {'inf' if high is None else high}{hi_txt}"
-    )
+    if low is not None and high is not None:
+        lo_txt = "(" if low_open else "["
+        hi_txt = ")" if high_open else "]"
+        interval = f"in {lo_txt}{low:g}, {high:g}{hi_txt}"
+    elif low is not None:
+        interval = f"{'>' if low_open else '≥'} {low:g}"
+    elif high is not None:
+        interval = f"{'<' if high_open else '≤'} {high:g}"
+    else:
+        interval = "a finite real number"
+    if unit:
+        interval += f" {unit}"
     if low is not None and (x < low or (low_open and x == low)):
         raise ConfigError(name, value, interval)
     if high is not None and (x > high or (high_open and x == high)):
@@ -75,9 +93,18 @@ def check_range(
     return x
 
 
-def check_integer(name: str, value: int, *, low: int, note: str = "") -> int:
-    """Return ``value`` if it is an integer (not a bool) ≥ ``low``, else raise
-    :class:`ConfigError` naming ``name`` (``note`` is appended to the valid range)."""
-    if isinstance(value, bool) or not isinstance(value, int) or value < low:
-        raise ConfigError(name, value, f"an integer ≥ {low}{note}")
-    return value
+def check_integer(
+    name: str, value: int, *, low: int, high: int | None = None, note: str = ""
+) -> int:
+    """Return ``int(value)`` if it is an integer (Python or NumPy, not a bool) in
+    [``low``, ``high``], else raise :class:`ConfigError` naming ``name`` (``note`` is appended
+    to the valid range)."""
+    valid = f"an integer ≥ {low}" if high is None else f"an integer in [{low}, {high}]"
+    if (
+        isinstance(value, bool)
+        or not isinstance(value, numbers.Integral)
+        or value < low
+        or (high is not None and value > high)
+    ):
+        raise ConfigError(name, value, valid + note)
+    return int(value)

@@ -118,8 +118,8 @@ import jax.numpy as jnp  # noqa: E402  (after configure: float64 arrays)
 
 __all__ = [
     "CACHE_DIR",
-    "configure",
     "CHEAP_PIPELINE",
+    "configure",
     "jax",
     "jnp",
     "kernel_options",

@@ -27,7 +27,7 @@ from typing import Any, NamedTuple
 import numpy as np
 
 from biplan import elements
-from biplan._errors import ConfigError, check_finite
+from biplan._errors import ConfigError, check_finite, check_range
 from biplan._jax import jax, jnp, kernel_options
 from biplan._kernels import stored_jit
 from biplan.geometry import chain
@@ -89,9 +89,13 @@ class Load(NamedTuple):
 
     @staticmethod
     def of_pressure(pressure: float, radius: float) -> Load:
-        """Internal pressure p [MPa = N/mm²] on a closed tube: end force p π R² [N]."""
+        """Internal pressure p [MPa = N/mm²] on a closed tube: end force p π R² [N].
+
+        Raises :class:`~biplan.ConfigError` unless p is finite and the radius R [mm] > 0.
+        """
         p = check_finite("pressure", pressure)
-        return Load(p * np.pi * float(radius) ** 2, 0.0, 0.0)
+        r = check_range("radius", radius, low=0.0, unit="mm")
+        return Load(p * np.pi * r**2, 0.0, 0.0)
 
     @property
     def is_displacement_controlled(self) -> bool:

@@ -14,6 +14,7 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
+from biplan._errors import check_integer
 from biplan.geometry import Tube
 from biplan.laws import LinearLaw, TrilinearLaw
 from biplan.options import ChainAttachment, ModelOptions
@@ -67,6 +68,7 @@ def fully_bistable(options: ModelOptions | None = None, n_modules: int = 4) -> T
     shows; the paper's chain (H^TPC = I, R3 ``ELEMENT``) lets only S-module openings rotate
     it. The stable states themselves do not depend on R3.
     """
+    n_modules = check_integer("n_modules", n_modules, low=1)
     options = options or ModelOptions(chain_attachment=ChainAttachment.EDGE_FIT)
     t = SEMI_BISTABLE_TABLE
     helical = TrilinearLaw.from_table(

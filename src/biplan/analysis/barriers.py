@@ -26,7 +26,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from biplan._errors import ConfigError, check_range
+from biplan._errors import ConfigError, check_integer, check_range
 from biplan._jax import jnp
 from biplan.analysis._nebkernel import compiled_band
 from biplan.analysis.stability import classify
@@ -102,10 +102,9 @@ class NudgedElasticBand:
 
     def __post_init__(self) -> None:
         for name in ("n_images", "max_iterations"):
-            v = getattr(self, name)
             low = 3 if name == "n_images" else 1
-            if isinstance(v, bool) or not isinstance(v, int) or v < low:
-                raise ConfigError(f"NudgedElasticBand.{name}", v, f"an integer ≥ {low}")
+            v = check_integer(f"NudgedElasticBand.{name}", getattr(self, name), low=low)
+            object.__setattr__(self, name, v)
         for name in (
             "spring",
             "tolerance",

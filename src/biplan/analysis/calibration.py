@@ -33,7 +33,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from biplan._errors import ConfigError, check_range
+from biplan._errors import ConfigError, check_integer, check_range
 from biplan.analysis.fits import CftGeometry, LawFit, fit_linear, fit_trilinear
 from biplan.analysis.specimens import Band, Specimen, band_statistics
 from biplan.laws import LinearLaw, TrilinearLaw
@@ -87,7 +87,7 @@ class CalibrationOptions:
     confidence : float
         Two-sided level of the percentile intervals, in (0, 1).
     seed : int or None
-        Seed of the bootstrap generator.
+        Seed of the bootstrap generator (≥ 0).
     points_per_phase, min_coverage
         Passed to :func:`~biplan.analysis.specimens.band_statistics`.
     fit_coverage : float
@@ -117,6 +117,8 @@ class CalibrationOptions:
             raise ConfigError("n_bootstrap", self.n_bootstrap, "an integer ≥ 0")
         check_range("confidence", self.confidence, low=0.0, high=1.0)
         check_range("fit_coverage", self.fit_coverage, low=0.0, high=1.0, high_open=False)
+        if self.seed is not None:
+            object.__setattr__(self, "seed", check_integer("seed", self.seed, low=0))
 
 
 @dataclass(frozen=True)

@@ -17,11 +17,12 @@ fully closed nor fully open is *partially transformed*.
 
 from __future__ import annotations
 
+import numbers
 from dataclasses import dataclass, field
 
 import numpy as np
 
-from biplan._errors import ConfigError, check_range
+from biplan._errors import ConfigError, check_integer, check_range
 from biplan.analysis.stability import classify
 from biplan.assembly import Load, Model
 from biplan.solvers.newton import Status, make_solution
@@ -83,11 +84,11 @@ class Deflation:
             "Deflation.max_rotation", self.max_rotation, low=0.0, high=np.pi, high_open=False
         )
         for name, low in (("n_perturbations", 0), ("max_midpoints", 0), ("max_steps", 1)):
-            v = getattr(self, name)
-            if isinstance(v, bool) or not isinstance(v, int) or v < low:
-                raise ConfigError(f"Deflation.{name}", v, f"an integer ≥ {low}")
-        if isinstance(self.seed, bool) or not isinstance(self.seed, int):
+            v = check_integer(f"Deflation.{name}", getattr(self, name), low=low)
+            object.__setattr__(self, name, v)
+        if isinstance(self.seed, bool) or not isinstance(self.seed, numbers.Integral):
             raise ConfigError("Deflation.seed", self.seed, "an integer")
+        object.__setattr__(self, "seed", int(self.seed))
 
 
 @dataclass(frozen=True)

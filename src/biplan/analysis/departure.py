@@ -23,7 +23,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from biplan._errors import ConfigError, check_range
+from biplan._errors import ConfigError, check_integer, check_range
 from biplan._jax import jnp
 from biplan.analysis.quasistatic import SUB_TOLERANCE, inexact_newton
 from biplan.assembly import Load, Model
@@ -83,9 +83,9 @@ class Ramp:
         check_range("Ramp.jump", self.jump, low=0.0)
         check_range("Ramp.overshoot", self.overshoot, low=0.0)
         for name, low in (("n_steps", 2), ("bisections", 0), ("max_relaxations", 1)):
-            v = getattr(self, name)
-            if isinstance(v, bool) or not isinstance(v, int) or v < low:
-                raise ConfigError(f"Ramp.{name}", v, f"an integer ≥ {low}")
+            object.__setattr__(
+                self, name, check_integer(f"Ramp.{name}", getattr(self, name), low=low)
+            )
         check_range("Ramp.kappa", self.kappa, low=0.0)
 
 

@@ -128,10 +128,12 @@ class ForceRamp:
             raise ConfigError("ramp.rate", r, "a finite non-zero rate [N/s]")
         check_range("ramp.duration", self.duration, low=0.0)
         check_range("ramp.snap_factor", self.snap_factor, low=1.0)
-        n = self.n_steps
-        if isinstance(n, bool) or not isinstance(n, int) or not 2 <= n <= 512:
-            raise ConfigError("ramp.n_steps", n, "an integer in [2, 512]")
-        check_integer("ramp.free_steps", self.free_steps, low=0)
+        object.__setattr__(
+            self, "n_steps", check_integer("ramp.n_steps", self.n_steps, low=2, high=512)
+        )
+        object.__setattr__(
+            self, "free_steps", check_integer("ramp.free_steps", self.free_steps, low=0)
+        )
         if self.after_snap not in AFTER_SNAP:
             raise ConfigError("ramp.after_snap", self.after_snap, " or ".join(AFTER_SNAP))
         check_range("ramp.damping_ratio", self.damping_ratio, low=0.0, high=1.0)

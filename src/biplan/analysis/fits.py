@@ -41,7 +41,7 @@ from dataclasses import dataclass
 import numpy as np
 from scipy.optimize import least_squares, lsq_linear
 
-from biplan._errors import ConfigError, check_range
+from biplan._errors import ConfigError, check_integer, check_range
 from biplan.laws import LinearLaw, TrilinearLaw
 
 __all__ = ["CftGeometry", "LawFit", "cft_force", "fit_linear", "fit_trilinear"]
@@ -65,12 +65,9 @@ class CftGeometry:
     n_folds: int = 1
 
     def __post_init__(self) -> None:
-        r = check_range("radius", self.radius, low=0.0)
-        n = self.n_folds
-        if isinstance(n, bool) or not isinstance(n, int | np.integer) or n < 1:
-            raise ConfigError("n_folds", n, "an integer ≥ 1")
+        r = check_range("radius", self.radius, low=0.0, unit="mm")
         object.__setattr__(self, "radius", r)
-        object.__setattr__(self, "n_folds", int(n))
+        object.__setattr__(self, "n_folds", check_integer("n_folds", self.n_folds, low=1))
 
     @property
     def fold_length(self) -> float:

@@ -55,7 +55,7 @@ from typing import Any
 
 import numpy as np
 
-from biplan._errors import ConfigError, check_range
+from biplan._errors import ConfigError, check_integer, check_range
 from biplan._jax import jax, jnp, kernel_options
 from biplan._kernels import stored_jit
 from biplan.analysis.design_map import stack_params
@@ -158,9 +158,9 @@ class StabilitySearch:
         names = ("max_equilibria", "solve_batch", "max_steps", "max_backtracks", "march_lanes",
                  "continuation_steps", "max_subset_folds")  # fmt: skip
         for name in names:
-            v = getattr(self, name)
-            if isinstance(v, bool) or not isinstance(v, int) or v < 1:
-                raise ConfigError(f"search.{name}", v, "an integer ≥ 1")
+            object.__setattr__(
+                self, name, check_integer(f"search.{name}", getattr(self, name), low=1)
+            )
         if self.continuation not in CONTINUATIONS:
             raise ConfigError("search.continuation", self.continuation, f"one of {CONTINUATIONS}")
         if self.seeding not in SEEDINGS:

@@ -24,7 +24,7 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
-from biplan._errors import ConfigError, check_range
+from biplan._errors import ConfigError, check_integer, check_range
 from biplan._jax import jnp
 from biplan.analysis.labels import bistable_folds, bits_to_label
 from biplan.assembly import Load, Model
@@ -78,9 +78,8 @@ class Enumeration:
         check_range("Enumeration.duplicate_tolerance", self.duplicate_tolerance, low=0.0)
         check_range("Enumeration.stability_tolerance", self.stability_tolerance, low=0.0)
         for name in ("max_iterations", "chunk"):
-            v = getattr(self, name)
-            if isinstance(v, bool) or not isinstance(v, int) or v < 1:
-                raise ConfigError(f"Enumeration.{name}", v, "an integer ≥ 1")
+            v = check_integer(f"Enumeration.{name}", getattr(self, name), low=1)
+            object.__setattr__(self, name, v)
 
 
 @dataclass(frozen=True)

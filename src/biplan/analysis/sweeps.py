@@ -24,7 +24,7 @@ from typing import Any, Protocol
 
 import numpy as np
 
-from biplan._errors import ConfigError
+from biplan._errors import ConfigError, check_integer
 from biplan.analysis.grid import QUANTITIES, Grid, GridAxis, apply_values, base_value, parse_axis
 from biplan.geometry import Tube
 
@@ -38,6 +38,7 @@ __all__ = [
     "apply_values",
     "assemble",
     "base_value",
+    "check_grid",
     "chunk_indices",
     "evaluate_chunk",
     "parse_axis",
@@ -96,8 +97,7 @@ class ChunkSink(Protocol):
 
 def chunk_indices(grid: Grid, chunk_size: int) -> list[np.ndarray]:
     """Flat point indices of every chunk (the last one may be shorter)."""
-    if isinstance(chunk_size, bool) or not isinstance(chunk_size, int) or chunk_size < 1:
-        raise ConfigError("chunk_size", chunk_size, "an integer ≥ 1")
+    chunk_size = check_integer("chunk_size", chunk_size, low=1)
     return [
         np.arange(lo, min(lo + chunk_size, grid.size)) for lo in range(0, grid.size, chunk_size)
     ]
@@ -209,6 +209,27 @@ def assemble(
     return evaluator.finish(ds)
 
 
+def check_grid(design: Tube, grid: Grid, quantity: Evaluator) -> None:
+    """Check every axis name and every design value of ``grid`` (what :func:`sweep` does
+    first, before solving anything).
+
+    Raises
+    ------
+    ConfigError
+        An axis that is neither a design quantity nor a load axis of ``quantity``, or a value
+        that gives no valid tube (named by its axis, e.g. ``b``).
+    """
+    for axis in grid.axes:
+        if axis.name not in QUANTITIES and axis.name not in quantity.load_axes:
+            raise ConfigError(
+                "grid axis", axis.name, f"one of {', '.join(QUANTITIES + quantity.load_axes)}"
+            )
+    for axis in grid.axes:
+        for v in axis.values:
+            if axis.name not in quantity.load_axes:
+                apply_values(design, {axis.name: v})
+
+
 def sweep(
     design: Tube,
     grid: Grid,
@@ -249,16 +270,7 @@ def sweep(
         Variables of ``quantity`` with dims (*grid axes, …), ``status`` per point, and the
         settings in the attributes.
     """
-    for axis in grid.axes:
-        if axis.name not in QUANTITIES and axis.name not in quantity.load_axes:
-            raise ConfigError(
-                "grid axis", axis.name, f"one of {', '.join(QUANTITIES + quantity.load_axes)}"
-            )
-    # validate every design before solving anything: an invalid grid is a ConfigError now
-    for axis in grid.axes:
-        for v in axis.values:
-            if axis.name not in quantity.load_axes:
-                apply_values(design, {axis.name: v})
+    check_grid(design, grid, quantity)
     chunks = chunk_indices(grid, chunk_size)
     results: dict[int, dict[str, np.ndarray]] = {}
     todo: list[tuple[int, np.ndarray]] = []

@@ -28,6 +28,8 @@ from rich.console import Console
 from rich.markup import escape
 from rich.table import Table
 
+from biplan.cli._checks import figure_suffixes, options_named, output_file
+
 if TYPE_CHECKING:
     from biplan.analysis.calibration import Calibration
 
@@ -87,6 +89,20 @@ Column = Annotated[str | None, typer.Option(help="Column name (default: the quan
 Unit = Annotated[str | None, typer.Option(help="Unit of the column.")]
 MinPoints = Annotated[int | None, typer.Option("--min-points", help="Minimum rows per segment.")]
 Quiet = Annotated[bool, typer.Option("--quiet", "-q", help="Only the summary line.")]
+#: Parameters of SpecimenFormat → the options they come from (also used by ``validate``).
+FORMAT_OPTIONS = {
+    **{f"{q} column": f"--{q}-column" for q in ("displacement", "force", "pressure", "segment")},
+    **{f"{q}_unit": f"--{q}-unit" for q in ("displacement", "force", "pressure")},
+    "min_points": "--min-points",
+}
+#: Parameters of CftGeometry and CalibrationOptions → the options they come from.
+FIT_OPTIONS = {
+    "radius": "--radius",
+    "n_folds": "--n-folds",
+    "n_bootstrap": "--bootstrap",
+    "confidence": "--confidence",
+    "seed": "--seed",
+}
 
 
 def write_table(result: Calibration, file: Path) -> None:
@@ -183,18 +199,23 @@ def _run(
     )
 
     console = Console(highlight=False)
+    output_file(out)
+    figure = figure or out.with_suffix(".png")
+    table_path = table_path or out.with_suffix(".csv")
+    output_file(figure, "--figure", suffixes=figure_suffixes())
+    output_file(table_path, "--table")
     geometry, fmt = (CftGeometry(), SpecimenFormat())
     if config is not None:
         geometry, fmt = read_calibration_config(config)
-    geometry = replace(geometry, **{k: v for k, v in geometry_changes.items() if v is not None})
-    fmt = with_overrides(fmt, **format_changes)
-    options = CalibrationOptions(**options_changes)
+    with options_named({**FORMAT_OPTIONS, **FIT_OPTIONS}):
+        changes = {k: v for k, v in geometry_changes.items() if v is not None}
+        geometry = replace(geometry, **changes)
+        fmt = with_overrides(fmt, **format_changes)
+        options = CalibrationOptions(**options_changes)
     specimens = read_specimens(data_dir, fmt, radius=geometry.radius)
     run = calibrate_trilinear if kind == "trilinear" else calibrate_linear
     result = run(specimens, geometry, options)
     text = calibration_toml(result, fold_set, source=str(data_dir))
-    figure = figure or out.with_suffix(".png")
-    table_path = table_path or out.with_suffix(".csv")
     try:
         out.parent.mkdir(parents=True, exist_ok=True)
         out.write_text(text, encoding="utf-8")

@@ -30,6 +30,8 @@ from rich.console import Console
 from rich.markup import escape
 from rich.table import Table
 
+from biplan.cli._checks import output_directory
+
 if TYPE_CHECKING:
     from biplan.analysis.quasistatic import QuasiStaticPath
     from biplan.assembly import Model
@@ -256,6 +258,7 @@ def demo(
     console = Console(highlight=False)
     interactive = console.is_terminal and not quiet
     t0 = time.perf_counter()
+    output_directory(out)
     model = biplan.Model(_tube(config))  # validate the input before creating anything
     try:
         out.mkdir(parents=True, exist_ok=True)

@@ -11,8 +11,16 @@ Chunks run in this process (``--workers 1``, default) on ``--threads`` threads (
 one per available core; chunks run concurrently, the kernels compiled once), on a loopback
 Dask ``LocalCluster`` (``--workers N``, N > 1) or on a user's scheduler (``--scheduler
 ADDRESS``). Finished chunks are
-stored under ``DIR/chunks``; ``--resume`` continues a killed run without recomputing them. The
-merged map is ``DIR/map.nc`` (netCDF, attributes hold the configuration and settings).
+stored under ``DIR/chunks``; ``--resume`` continues a killed run without recomputing them
+(a chunk file that is missing or unreadable is reported and computed again; a directory
+with chunk files but no ``manifest.json`` is refused). The merged map is ``DIR/map.nc``
+(netCDF, attributes hold the configuration and settings).
+
+Every option, the grid and the output directory are checked before anything is computed
+(``--workers`` ≥ 1; ``--workers``/``--threads`` with ``--scheduler``, and ``--threads`` with
+``--workers`` > 1, are refused: they would be ignored). Points that failed are counted on
+stderr (also with ``--quiet``); a map in which every point failed is written, then the
+command exits with status 2.
 """
 
 from __future__ import annotations
@@ -24,6 +32,10 @@ from typing import TYPE_CHECKING, Annotated, Any
 
 import typer
 from rich.console import Console
+from rich.markup import escape
+
+from biplan._errors import ConvergenceError, check_integer
+from biplan.cli._checks import options_named, output_directory, refuse_unused
 
 if TYPE_CHECKING:
     from biplan.analysis.sweeps import Evaluator, Grid
@@ -47,6 +59,15 @@ _Threads = Annotated[
 _Resume = Annotated[bool, typer.Option("--resume", help="Continue a killed run in --out.")]
 _Chunk = Annotated[int, typer.Option(help="Points per chunk (and per compiled batch).")]
 _Quiet = Annotated[bool, typer.Option("--quiet", "-q", help="No progress bar or summary.")]
+#: Internal names of grid values → the option they come from.
+_GRID_OPTIONS = {
+    "b": "--b",
+    "grid.b": "--b",
+    "C": "--C",
+    "grid.C": "--C",
+    "displacement": "--displacement",
+    "grid.displacement": "--displacement",
+}
 
 
 def run_map(
@@ -62,10 +83,19 @@ def run_map(
     threads: int = 0,
     quiet: bool = False,
 ) -> Any:
-    """Run a sweep into ``out`` (chunk store + ``map.nc``) with a Rich progress bar."""
-    from biplan._errors import check_integer
+    """Run a sweep into ``out`` (chunk store + ``map.nc``) with a Rich progress bar.
 
-    check_integer("--threads", threads, low=0, note=" (0: one per available core)")
+    Damaged chunks of a resumed run and failed points are reported on stderr (also when
+    ``quiet``); the summary (unless ``quiet``) says how many chunks were reused.
+
+    Raises
+    ------
+    ConfigError
+        An invalid ``workers``, ``threads`` or output directory (before anything is computed).
+    ConvergenceError
+        Every point of the map failed (after ``map.nc`` is written).
+    """
+    _check_settings(out, workers, threads)
     from rich.progress import (
         BarColumn,
         MofNCompleteColumn,
@@ -88,7 +118,12 @@ def run_map(
         "chunk_size": chunk_size,
     }
     n_chunks = len(chunk_indices(grid, chunk_size))
-    store = ChunkStore(out, description, n_chunks, resume)
+    with options_named({"out": "--out"}):
+        store = ChunkStore(out, description, n_chunks, resume)
+    warn = Console(stderr=True, highlight=False)
+    for chunk, why in sorted(store.damaged.items()):
+        warn.print(f"[yellow]warning:[/] chunk {chunk} of {escape(str(out))}: {escape(why)}; "
+                   "computing it again", soft_wrap=True)  # fmt: skip
     runner = None
     n_threads = threads or min(available_cores(), n_chunks)
     if scheduler is not None or workers > 1:
@@ -124,15 +159,52 @@ def run_map(
     ds.attrs["config"] = description["config"]
     save_map(ds, store.map_path)
     elapsed = time.perf_counter() - start
+    n_failed = int(ds.attrs["n_failed"])
+    if n_failed == grid.size:
+        raise ConvergenceError(
+            f"every one of the {grid.size} points of the map failed (their status is in "
+            f"{store.map_path})"
+        )
+    if n_failed:
+        warn.print(f"[yellow]warning:[/] {n_failed} of {grid.size} points failed (status ≠ 0 "
+                   f"in {escape(str(store.map_path))})", soft_wrap=True)  # fmt: skip
+    reused = f", {store.reused} of {n_chunks} chunks reused" if resume else ""
     Console(quiet=quiet, highlight=False).print(
-        f"{grid.size} points ({ds.attrs['n_failed']} failed) in {elapsed:.1f} s; "
-        f"wrote {store.map_path}"
+        f"{grid.size} points ({n_failed} failed{reused}) in {elapsed:.1f} s; "
+        f"wrote {escape(str(store.map_path))}",
+        soft_wrap=True,
     )
     return ds
 
 
+def _check_settings(out: Path, workers: int, threads: int) -> None:
+    """``--out``, ``--workers`` and ``--threads`` (by the commands first, and by run_map)."""
+    output_directory(out)
+    check_integer("--workers", workers, low=1)
+    check_integer("--threads", threads, low=0, note=" (0: one per available core)")
+
+
+def _check_runner(
+    ctx: typer.Context,
+    out: Path,
+    chunk_size: int | None,
+    workers: int,
+    scheduler: str | None,
+    threads: int,
+) -> None:
+    """The checks of the options every map command shares, before anything is computed."""
+    _check_settings(out, workers, threads)
+    if chunk_size is not None:
+        check_integer("--chunk-size", chunk_size, low=1)
+    if scheduler is not None:
+        refuse_unused(ctx, {"workers": "--workers", "threads": "--threads"}, "with --scheduler")
+    elif workers > 1:
+        refuse_unused(ctx, {"threads": "--threads"}, "with --workers > 1")
+
+
 @app.command("design")
 def design(
+    ctx: typer.Context,
     config: _Config,
     b: Annotated[str, typer.Option("--b", help="b values: START:STOP:N or a,b,c.")],
     c: Annotated[str, typer.Option("--C", help="C values: START:STOP:N or a,b,c.")],
@@ -158,18 +230,25 @@ def design(
     """Force-controlled design map over (b, C): terminal u_z/l0, u_r/l0, loss of stability."""
     import biplan
     from biplan.analysis.design_map import ForceRamp, ResponseEvaluator
-    from biplan.analysis.sweeps import Grid, parse_axis
+    from biplan.analysis.sweeps import Grid, check_grid, parse_axis
 
-    tube = biplan.load_config(config)
-    grid = Grid((parse_axis("b", b), parse_axis("C", c)))
-    ramp = ForceRamp(rate=rate, duration=duration, n_steps=steps, after_snap=after_snap)
+    _check_runner(ctx, out, chunk_size, workers, scheduler, threads)
+    names = {**_GRID_OPTIONS, "ramp.rate": "--rate", "ramp.duration": "--duration",
+             "ramp.n_steps": "--steps", "ramp.after_snap": "--after-snap"}  # fmt: skip
+    with options_named(names):
+        grid = Grid((parse_axis("b", b), parse_axis("C", c)))
+        ramp = ForceRamp(rate=rate, duration=duration, n_steps=steps, after_snap=after_snap)
     ev = ResponseEvaluator(ramp)
+    tube = biplan.load_config(config)
+    with options_named(_GRID_OPTIONS):
+        check_grid(tube, grid, ev)
     run_map(tube, grid, ev, out, chunk_size=chunk_size, resume=resume, workers=workers,
             scheduler=scheduler, threads=threads, quiet=quiet)  # fmt: skip
 
 
 @app.command("stability")
 def stability(
+    ctx: typer.Context,
     config: _Config,
     displacement: Annotated[
         str, typer.Option(help="U/l0 values (normalised end displacement): START:STOP:N.")
@@ -203,20 +282,26 @@ def stability(
         StabilitySearch,
         stability_chunk_size,
     )
-    from biplan.analysis.sweeps import Grid, apply_values, parse_axis
+    from biplan.analysis.sweeps import Grid, apply_values, check_grid, parse_axis
 
-    tube = apply_values(biplan.load_config(config), {"b": b})
-    grid = Grid((parse_axis("C", c), parse_axis("displacement", displacement)))
-    ev = StabilityEvaluator(StabilitySearch(max_equilibria=max_equilibria, seeding=seeding))
+    _check_runner(ctx, out, chunk_size, workers, scheduler, threads)
+    names = {**_GRID_OPTIONS, "search.max_equilibria": "--max-equilibria",
+             "search.seeding": "--seeding"}  # fmt: skip
+    with options_named(names):
+        grid = Grid((parse_axis("C", c), parse_axis("displacement", displacement)))
+        ev = StabilityEvaluator(StabilitySearch(max_equilibria=max_equilibria, seeding=seeding))
+    tube = biplan.load_config(config)
+    with options_named(_GRID_OPTIONS):
+        tube = apply_values(tube, {"b": b})
+        check_grid(tube, grid, ev)
     size = chunk_size or stability_chunk_size(grid.shape[1])
     ds = run_map(tube, grid, ev, out, chunk_size=size, resume=resume, workers=workers,
-                 scheduler=scheduler, threads=threads, quiet=True)  # fmt: skip
+                 scheduler=scheduler, threads=threads, quiet=quiet)  # fmt: skip
     if not quiet:
         counts = {k: int((ds["regime"].values == v).sum()) for k, v in
                   (("mono", 1), ("bi", 2), ("multi", 3))}  # fmt: skip
         Console(highlight=False).print(
-            f"b = {b:g}: {counts} points, {int(ds['transition'].sum())} in the transition band;"
-            f" wrote {out / 'map.nc'}"
+            f"b = {b:g}: {counts} points, {int(ds['transition'].sum())} in the transition band"
         )
 
 
@@ -234,8 +319,11 @@ def plot(
     from biplan.plot.maps import design_map, stability_map
     from biplan.plot.response import COLUMN_FIGSIZE
 
-    ds = load_map(directory)
+    with options_named({"map": "DIRECTORY"}):
+        ds = load_map(directory)
     folder = directory if directory.is_dir() else directory.parent
+    names = ("stability.png",) if "regime" in ds else ("u_z.png", "u_r.png")
+    output_directory(folder, "DIRECTORY", files=names)
     jobs: list[tuple[str, Any]] = []
     if "regime" in ds:
         jobs.append(("stability", lambda ax: stability_map(ds, ax=ax)))

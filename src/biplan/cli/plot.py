@@ -16,7 +16,11 @@ attribute rebuilds the model. Kinds:
   fraction of every fold along a path, trajectory or sweep (a stable-branch sweep's phase map
   shows its folds snapping open one by one).
 
-Static figures are written in the format of the ``--out`` suffix (PNG, PDF, SVG, …).
+Static figures are written in the format of the ``--out`` suffix (PNG, PDF, SVG, … — every
+format matplotlib writes); animations as ``.gif`` or ``.mp4``. A file name without a suffix,
+or with one the kind cannot be written as, is refused (the message lists the valid ones), as
+are an output location that cannot be written and a non-finite ``--elev``, ``--azim``,
+``--fps`` or ``--dpi``, before the result is read.
 """
 
 from __future__ import annotations
@@ -31,14 +35,15 @@ import typer
 from rich.console import Console
 from rich.markup import escape
 
-from biplan._errors import ConfigError
+from biplan._errors import ConfigError, check_finite
+from biplan.cli._checks import figure_suffixes, output_file
 
 if TYPE_CHECKING:
     from matplotlib.figure import Figure
 
     from biplan.assembly import Model
 
-__all__ = ["Kind", "plot"]
+__all__ = ["Kind", "plot", "suffixes"]
 
 #: Resolution of static figures [dots per inch].
 DPI = 300
@@ -63,6 +68,14 @@ class ColorBy(enum.StrEnum):
 
     elongation = "elongation"
     phase = "phase"
+
+
+def suffixes(kind: Kind) -> frozenset[str]:
+    """The ``--out`` suffixes (lower case, with the dot) a kind can be written as."""
+    if kind is Kind.animation:
+        return frozenset((".gif", ".mp4"))
+    static = figure_suffixes()
+    return static | {".vtu", ".pvd"} if kind is Kind.tube else static
 
 
 def _load(file: Path) -> Any:
@@ -180,11 +193,13 @@ def plot(
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
+    output_file(out, suffixes=suffixes(kind))
+    view = {"elev": check_finite("--elev", elev), "azim": check_finite("--azim", azim)}
+    check_finite("--fps", fps)
+    if dpi is not None:
+        check_finite("--dpi", dpi)
     dataset = _load(result)
-    view = {"elev": elev, "azim": azim}
     suffix = out.suffix.lower()
-    if kind is Kind.animation and suffix not in (".gif", ".mp4"):
-        raise typer.BadParameter("an animation is written as .gif or .mp4", param_hint="--out")
     try:
         out.parent.mkdir(parents=True, exist_ok=True)
         if kind is Kind.animation:

@@ -48,6 +48,7 @@ import typer
 from rich.console import Console
 from rich.markup import escape
 
+from biplan.cli._checks import output_directory
 from biplan.io.reproduction import (
     CalibrationFacts,
     MovieFacts,
@@ -553,6 +554,7 @@ def reproduce(
     CFT calibration, Movie S1) and write REPRODUCTION.md with a computed verdict per claim."""
     from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, TimeElapsedColumn
 
+    output_directory(out)
     try:
         out.mkdir(parents=True, exist_ok=True)
     except OSError as err:

@@ -18,17 +18,27 @@ Writes into DIR:
 
 Units: force N, displacement mm, pressure **kPa** on the command line (MPa = N/mm² in the
 library).
+
+Every option is checked before the tube is loaded: a value out of range, an output location
+that cannot be written (:mod:`biplan.cli._checks`) and an option the chosen mode would ignore
+(``--rate``, ``--duration``, ``--hold``, ``--time-step``, ``--damping-ratio`` without
+``--dynamic``; ``--stop``, ``--method``, ``--step``, ``--max-step``, ``--max-steps`` with it;
+``--max-step`` with ``--method stable``) are refused with a one-line error.
 """
 
 from __future__ import annotations
 
 import enum
+import math
 import sys
 from pathlib import Path
 from typing import TYPE_CHECKING, Annotated
 
 import typer
 from rich.console import Console
+
+from biplan._errors import ConfigError, check_finite, check_integer, check_range
+from biplan.cli._checks import given, output_directory, refuse_unused
 
 if TYPE_CHECKING:
     from biplan.assembly import Model
@@ -40,6 +50,26 @@ __all__ = ["Method", "bifurcation_note", "respond"]
 DEFAULT_STOP = {"force": 2.5, "displacement": 9.0, "pressure": 200.0}
 #: Default ramp rates per control (dynamic): N/s, mm/s, kPa/s (paper: 0.8 N/s).
 DEFAULT_RATE = {"force": 0.8, "displacement": 4.5, "pressure": 64.0}
+#: Units of --stop per control.
+UNITS = {"force": "N", "displacement": "mm", "pressure": "kPa"}
+#: The files written into --out.
+OUTPUT_FILES = ("response.nc", "response.csv", "response.png")
+#: Options of dynamic runs only (Python name → option), refused without --dynamic.
+DYNAMIC_OPTIONS = {
+    "rate": "--rate",
+    "duration": "--duration",
+    "hold": "--hold",
+    "time_step": "--time-step",
+    "damping_ratio": "--damping-ratio",
+}
+#: Options of quasi-static runs only, refused with --dynamic.
+QUASI_STATIC_OPTIONS = {
+    "stop": "--stop",
+    "method": "--method",
+    "step": "--step",
+    "max_step": "--max-step",
+    "max_steps": "--max-steps",
+}
 
 
 class ControlName(enum.StrEnum):
@@ -55,6 +85,7 @@ class Method(enum.StrEnum):
 
 
 def respond(
+    ctx: typer.Context,
     config: Annotated[Path, typer.Argument(help="Tube configuration (TOML).", exists=True)],
     out: Annotated[Path, typer.Option("--out", help="Output directory.")] = Path("response"),
     control: Annotated[ControlName, typer.Option(help="Controlled quantity.")] = ControlName.force,
@@ -100,12 +131,15 @@ def respond(
     from biplan.analysis.response import summarize
     from biplan.io.results import dataset, save_csv, save_netcdf
 
+    output_directory(out, files=OUTPUT_FILES)
     if method is Method.stable and (dynamic or control is not ControlName.displacement):
         raise biplan.ConfigError(
             "--method", "stable", "used with --control displacement, quasi-static (no --dynamic)"
         )
-    if method is Method.stable and not step > 0:
-        raise biplan.ConfigError("--step", step, "> 0 mm (the displacement per step)")
+    if dynamic:
+        _check_dynamic(ctx, rate, duration, hold, time_step, damping_ratio)
+    else:
+        _check_quasi_static(ctx, method, stop, step, max_step, max_steps, control.value)
     console = Console(quiet=quiet or not sys.stdout.isatty(), highlight=False)
     tube = biplan.load_config(config)
     model = biplan.Model(tube)
@@ -113,8 +147,7 @@ def respond(
     scale = 1e-3 if kind == "pressure" else 1.0  # kPa → MPa
     if method is Method.stable:
         with console.status(f"[bold]{tube.name}[/]: stable-branch sweep…"):
-            _stable_sweep(model, DEFAULT_STOP[kind] if stop is None else stop, step, max_steps,
-                          out, quiet)  # fmt: skip
+            _stable_sweep(model, DEFAULT_STOP[kind] if stop is None else stop, step, out, quiet)
         return
     result: biplan.Path | biplan.Trajectory
     with console.status(f"[bold]{tube.name}[/]: {'integrating' if dynamic else 'tracing'}…"):
@@ -124,12 +157,8 @@ def respond(
             value = (DEFAULT_STOP[kind] if stop is None else stop) * scale
             ctl = biplan.Control(biplan.solvers.ControlKind(kind), value)
             cls = biplan.ArcLength if method is Method.arclength else biplan.LoadStepping
-            result = biplan.trace_path(
-                model,
-                cls(initial_step=step, max_step=max(max_step, step), max_steps=max_steps),
-                None,
-                ctl,
-            )
+            stepper = cls(initial_step=step, max_step=max_step, max_steps=max_steps)
+            result = biplan.trace_path(model, stepper, None, ctl)
     out.mkdir(parents=True, exist_ok=True)
     save_netcdf(dataset(result), out / "response.nc")
     save_csv(result, out / "response.csv")
@@ -147,11 +176,10 @@ def respond(
         report.print(f"[yellow]note:[/] {note}")
 
 
-def _stable_sweep(
-    model: Model, stop: float, step: float, max_steps: int, out: Path, quiet: bool
-) -> None:
+def _stable_sweep(model: Model, stop: float, step: float, out: Path, quiet: bool) -> None:
     """``--method stable``: :func:`~biplan.analysis.quasistatic.displacement_sweep` in
-    ⌈stop/step⌉ equal steps (at most ``max_steps``) from the relaxed reference."""
+    ⌈stop/step⌉ equal steps (checked against ``--max-steps`` before) from the relaxed
+    reference."""
     import numpy as np
 
     import biplan
@@ -159,7 +187,7 @@ def _stable_sweep(
     from biplan.analysis.response import summarize
     from biplan.io.results import save_netcdf, save_sweep_csv, sweep_dataset
 
-    n = int(min(max(np.ceil(abs(stop) / step), 1), max_steps))
+    n = _stable_steps(stop, step)
     ref = biplan.relaxed_reference(model)
     path = displacement_sweep(model, np.linspace(stop / n, stop, n), start=ref)
     out.mkdir(parents=True, exist_ok=True)
@@ -175,6 +203,70 @@ def _stable_sweep(
         + "\n".join(summarize(path, initial_length=l0).lines())
         + f"\nwrote {out}/response.{{nc,csv,png}}"
     )
+
+
+def _stable_steps(stop: float, step: float) -> int:
+    """Steps of ``--method stable``: ⌈|stop| / step⌉, at least one."""
+    return max(math.ceil(abs(stop) / step), 1)
+
+
+def _check_quasi_static(
+    ctx: typer.Context,
+    method: Method,
+    stop: float | None,
+    step: float,
+    max_step: float,
+    max_steps: int,
+    kind: str,
+) -> None:
+    """Refuse quasi-static options out of range, and dynamic ones (they would be ignored)."""
+    import biplan
+
+    refuse_unused(ctx, DYNAMIC_OPTIONS, "without --dynamic")
+    if stop is not None and check_finite("--stop", stop) == 0:
+        raise ConfigError("--stop", stop, f"a non-zero end value [{UNITS[kind]}]")
+    check_integer("--max-steps", max_steps, low=1)
+    if method is Method.stable:
+        refuse_unused(ctx, {"max_step": "--max-step"}, "with --method stable")
+        check_range("--step", step, low=0.0, unit="mm (the displacement per step)")
+        top = DEFAULT_STOP[kind] if stop is None else stop
+        ratio = abs(top) / step  # inf for a denormal step
+        if ratio > max_steps:
+            n = f"{math.ceil(ratio)} steps" if math.isfinite(ratio) else "too many steps"
+            raise ConfigError(
+                "--step",
+                step,
+                f"≥ |--stop| / --max-steps = {abs(top) / max_steps:g} mm "
+                f"({n} to reach {top:g} mm; at most --max-steps {max_steps})",
+            )
+        return
+    check_range("--step", step, low=biplan.ArcLength.min_step)
+    if given(ctx, "max_step"):
+        check_range("--max-step", max_step, low=step, low_open=False, unit="(--step)")
+    elif step > max_step:
+        raise ConfigError(
+            "--step", step, f"≤ {max_step:g} (the default --max-step; give a larger one)"
+        )
+
+
+def _check_dynamic(
+    ctx: typer.Context,
+    rate: float | None,
+    duration: float,
+    hold: float,
+    time_step: float,
+    damping_ratio: float,
+) -> None:
+    """Refuse dynamic options out of range, and quasi-static ones (they would be ignored)."""
+    refuse_unused(ctx, QUASI_STATIC_OPTIONS, "with --dynamic")
+    if rate is not None and check_finite("--rate", rate) == 0:
+        raise ConfigError("--rate", rate, "a non-zero ramp rate")
+    check_range("--duration", duration, low=0.0, unit="s")
+    check_range("--hold", hold, low=0.0, low_open=False, unit="s")
+    total = duration + hold
+    check_range("--time-step", time_step, low=0.0, high=total, high_open=False,
+                unit="s (at most --duration + --hold)")  # fmt: skip
+    check_range("--damping-ratio", damping_ratio, low=0.0, low_open=False)
 
 
 def bifurcation_note(result: object) -> str | None:
@@ -210,8 +302,8 @@ def _dynamic(
 
     r = (DEFAULT_RATE[kind] if rate is None else rate) * scale
     top = r * duration
-    times = (0.0, duration) if hold <= 0 else (0.0, duration, duration + hold)
-    values = (0.0, top) if hold <= 0 else (0.0, top, top)
+    times = (0.0, duration) if hold == 0 else (0.0, duration, duration + hold)
+    values = (0.0, top) if hold == 0 else (0.0, top, top)
     history = biplan.LoadHistory(ControlKind(kind), times, values)
     rayleigh = 0.0
     if damping_ratio > 0:

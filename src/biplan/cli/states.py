@@ -12,13 +12,17 @@ DIR:
 * ``transitions.png`` (pathways highlighted), ``endpoint_space.png``, ``distributions.png``.
 
 ``path`` prints the pathway between two states (fewest fold switches, or least barrier with
-``--weight barrier``) and each step's barrier.
+``--weight barrier``) and each step's barrier. START and TARGET are state names: the
+hexadecimal label (any case, exactly the digits of the tube's bistable folds, e.g. ``2a`` for
+seven folds), with the ``.2``, ``.3``… suffix of a repeated label; they are checked against
+the tube before anything is enumerated. ``states`` checks ``--out`` before it starts.
 """
 
 from __future__ import annotations
 
 import csv
 import itertools
+import re
 import sys
 from pathlib import Path
 from typing import TYPE_CHECKING, Annotated, Any
@@ -26,13 +30,60 @@ from typing import TYPE_CHECKING, Annotated, Any
 import typer
 from rich.console import Console
 
+from biplan._errors import ConfigError
+from biplan.cli._checks import options_named, output_directory
+
 if TYPE_CHECKING:
     from biplan.analysis.catalogue import StateCatalogue
+    from biplan.geometry import Tube
 
-__all__ = ["path", "states", "write_states"]
+__all__ = ["path", "state_name", "states", "write_states"]
 
 #: The paper's pathways (SI transition section): p1 2A → 66, p2 2A → 1B, p3 → 00.
 PAPER_PATHWAYS = (("2A", "66"), ("2A", "1B"), ("66", "00"))
+#: The files ``states`` writes into --out.
+STATE_FILES = (
+    "states.csv",
+    "seeds.csv",
+    "states.nc",
+    "hierarchy.nc",
+    "transitions.graphml",
+    "transitions.png",
+    "endpoint_space.png",
+    "distributions.png",
+)
+_STATE_NAME = re.compile(r"^([0-9A-Fa-f]+)(?:\.([0-9]+))?$")
+
+
+def state_name(argument: str, text: str, tube: Tube) -> str:
+    """The state name ``text`` (the argument ``argument``, e.g. START) checked against the
+    tube's bistable folds: hexadecimal digits in any case, as many as the folds need, below
+    2^n_folds, optionally followed by ``.k`` (k ≥ 2, a repeated label); returned upper case.
+
+    Raises
+    ------
+    ConfigError
+        Naming ``argument``, ``text`` and the valid form.
+    """
+    from biplan.analysis.labels import bistable_folds, label_to_bits
+
+    n_bits = len(bistable_folds(tube))
+    digits = (n_bits + 3) // 4
+    if n_bits == 0:
+        raise ConfigError(argument, text, "a state of a tube with bistable folds (it has none)")
+    valid = (
+        f"{digits} hexadecimal digit{'s' if digits > 1 else ''} from {0:0{digits}X} to "
+        f"{2**n_bits - 1:0{digits}X} ({n_bits} bistable folds, any case), optionally followed "
+        "by .2, .3, … (a repeated label)"
+    )
+    match = _STATE_NAME.match(text.strip())
+    if match is None or (match[2] is not None and int(match[2]) < 2):
+        raise ConfigError(argument, text, valid)
+    try:
+        label_to_bits(match[1].upper(), n_bits)
+    except ConfigError:
+        raise ConfigError(argument, text, valid) from None
+    return match[1].upper() + ("" if match[2] is None else f".{match[2]}")
 
 
 def _progress_enumeration(model: Any, quiet: bool) -> StateCatalogue:
@@ -152,6 +203,7 @@ def states(
     import biplan
     from biplan.analysis.transitions import transition_graph
 
+    output_directory(out, files=STATE_FILES)
     model = biplan.Model(biplan.load_config(config))
     catalogue = _progress_enumeration(model, quiet)
     graph = transition_graph(catalogue)
@@ -192,23 +244,25 @@ def path(
 ) -> None:
     """Print the transition pathway between two stable states and its barriers."""
     import biplan
-    from biplan._errors import ConfigError
     from biplan.analysis.transitions import pathway, transition_graph
 
     if weight not in ("switches", "barrier"):
         raise ConfigError("--weight", weight, "'switches' or 'barrier'")
-    model = biplan.Model(biplan.load_config(config))
+    tube = biplan.load_config(config)
+    start, target = state_name("START", start, tube), state_name("TARGET", target, tube)
+    model = biplan.Model(tube)
     catalogue = _progress_enumeration(model, quiet)
     graph = transition_graph(catalogue)
     if weight == "barrier":
         _annotate(model, catalogue, graph, quiet)
-    found = pathway(
-        graph,
-        start,
-        target,
-        all_paths=all_paths,
-        weight=None if weight == "switches" else "barrier",
-    )
+    with options_named({"start": "START", "target": "TARGET"}):
+        found = pathway(
+            graph,
+            start,
+            target,
+            all_paths=all_paths,
+            weight=None if weight == "switches" else "barrier",
+        )
     paths: list[list[str]] = found if all_paths else [found]  # type: ignore[assignment,list-item]
     on_paths = {tuple(e) for p in paths for e in itertools.pairwise(p)}
     missing = [e for e in on_paths if "saddle_energy" not in graph.edges[e]]

@@ -27,7 +27,9 @@ import typer
 from rich.console import Console
 from rich.markup import escape
 
-from biplan.cli.calibrate import Column, MinPoints, Quiet, Unit, _format_changes
+from biplan._errors import check_range
+from biplan.cli._checks import options_named, output_directory
+from biplan.cli.calibrate import FORMAT_OPTIONS, Column, MinPoints, Quiet, Unit, _format_changes
 
 if TYPE_CHECKING:
     from biplan.analysis.quasistatic import QuasiStaticPath
@@ -145,20 +147,24 @@ def validate(
 
     console = Console(highlight=False)
     interactive = console.is_terminal and not quiet
+    output_directory(out, files=("validation.png", "validation.csv", "prediction.csv"))
+    if max_displacement is not None:
+        check_range("--max-displacement", max_displacement, low=0.0, unit="mm")
+    with options_named(FORMAT_OPTIONS):
+        fmt = with_overrides(
+            SpecimenFormat(),
+            **_format_changes(
+                displacement_column,
+                force_column,
+                pressure_column,
+                segment_column,
+                displacement_unit,
+                force_unit,
+                pressure_unit,
+                min_points,
+            ),
+        )
     tube = biplan.load_config(config)
-    fmt = with_overrides(
-        SpecimenFormat(),
-        **_format_changes(
-            displacement_column,
-            force_column,
-            pressure_column,
-            segment_column,
-            displacement_unit,
-            force_unit,
-            pressure_unit,
-            min_points,
-        ),
-    )
     specimens = read_specimens(measured_dir, fmt, radius=tube.development.radius)
     band = band_statistics(specimens)
     top = max_displacement

@@ -15,7 +15,7 @@ from dataclasses import dataclass, field, replace
 from functools import cached_property
 from typing import Any
 
-from biplan._errors import ConfigError
+from biplan._errors import ConfigError, check_integer
 from biplan.geometry.connector import ConnectorSpec
 from biplan.geometry.development import Development
 from biplan.geometry.module import ModuleShape, module_shape
@@ -96,9 +96,8 @@ class Tube:
     name: str = ""
 
     def __post_init__(self) -> None:
-        n = self.n_modules
-        if isinstance(n, bool) or not isinstance(n, int) or n < 1:
-            raise ConfigError("n_modules", n, "an integer ≥ 1")
+        n = check_integer("n_modules", self.n_modules, low=1)
+        object.__setattr__(self, "n_modules", n)
         object.__setattr__(self, "helical_laws", tuple(self.helical_laws))
         object.__setattr__(self, "circular_laws", tuple(self.circular_laws))
         if len(self.helical_laws) != n:
@@ -138,12 +137,12 @@ class Tube:
     ) -> Tube:
         """A tube with one law for every helical fold and one for every circular fold."""
         dev = Development(radius, pitch, helical_angle)
-        nc = n_modules - 1 + int(base_fold) if isinstance(n_modules, int) else 0
+        n = check_integer("n_modules", n_modules, low=1)
         return cls(
             dev,
-            n_modules,
-            (helical,) * n_modules if isinstance(n_modules, int) else (),
-            (circular,) * max(nc, 0),
+            n,
+            (helical,) * n,
+            (circular,) * (n - 1 + int(base_fold)),
             base_fold,
             options or ModelOptions(),
             **kwargs,

@@ -92,6 +92,8 @@ from __future__ import annotations
 
 import enum
 import math
+import numbers
+import os
 import tomllib
 from collections import Counter
 from collections.abc import Iterator, Mapping
@@ -221,8 +223,8 @@ class _Reader:
         return value
 
     def number(self, value: Any, key: str) -> float:
-        """A finite real number (int or float, not bool)."""
-        if isinstance(value, bool) or not isinstance(value, int | float):
+        """A finite real number (Python or NumPy, not bool)."""
+        if isinstance(value, bool) or not isinstance(value, numbers.Real):
             raise self.fail(key, value, "a finite real number")
         x = float(value)
         if not math.isfinite(x):
@@ -243,10 +245,10 @@ class _Reader:
         return tuple(self.number(v, f"{key}[{i}]") for i, v in enumerate(value))
 
     def integer(self, value: Any, key: str, valid: str) -> int:
-        """An int (not bool)."""
-        if isinstance(value, bool) or not isinstance(value, int):
+        """An integer (Python or NumPy, not bool), returned as an int."""
+        if isinstance(value, bool) or not isinstance(value, numbers.Integral):
             raise self.fail(key, value, valid)
-        return value
+        return int(value)
 
     def boolean(self, value: Any, key: str) -> bool:
         """A bool."""
@@ -475,10 +477,13 @@ def load_config(path: str | Path) -> Tube:
     Raises
     ------
     ConfigFileError
-        If the file cannot be read (``parameter = "path"``), is not valid TOML
-        (``parameter = "toml"``), or any entry is invalid (``parameter`` = its dotted key).
+        If ``path`` is not a path (a str or os.PathLike) or the file cannot be read
+        (``parameter = "path"``), is not valid TOML (``parameter = "toml"``), or any entry is
+        invalid (``parameter`` = its dotted key).
     """
     source = str(path)
+    if not isinstance(path, str | os.PathLike):
+        raise ConfigFileError("path", path, "a path to a TOML file (str or pathlib.Path)", source)
     try:
         text = Path(path).read_bytes().decode("utf-8")
     except (OSError, UnicodeDecodeError) as err:

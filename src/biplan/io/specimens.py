@@ -39,7 +39,7 @@ from typing import Any
 
 import numpy as np
 
-from biplan._errors import ConfigError
+from biplan._errors import ConfigError, check_integer
 from biplan.analysis.calibration import Calibration
 from biplan.analysis.fits import CftGeometry
 from biplan.analysis.specimens import MIN_POINTS, Segment, Specimen, segment_problem
@@ -142,9 +142,7 @@ class SpecimenFormat:
         for name in ("displacement", "force", "pressure", "segment"):
             if not str(getattr(self, name)).strip():
                 raise ConfigError(f"{name} column", getattr(self, name), "a non-empty name")
-        n = self.min_points
-        if isinstance(n, bool) or not isinstance(n, int) or n < 2:
-            raise ConfigError("min_points", n, "an integer ≥ 2")
+        object.__setattr__(self, "min_points", check_integer("min_points", self.min_points, low=2))
 
     def factor(self, quantity: str) -> float:
         """Factor from the configured unit of ``quantity`` to mm, N or N/mm²."""
@@ -398,11 +396,17 @@ def read_calibration_config(path: str | Path) -> tuple[CftGeometry, SpecimenForm
     units = {f"{k}_unit": v for k, v in data.get("units", {}).items()}
     try:
         geometry = CftGeometry(**geo)
+    except ConfigError as err:
+        raise ConfigError(f"{source}: geometry.{err.parameter}", err.value, err.valid) from None
+    try:
         fmt = SpecimenFormat(**cols, **units)
-    except (ConfigError, TypeError) as err:
-        raise ConfigError(
-            f"{source}: config", str(err), "valid geometry, columns and units"
-        ) from None
+    except ConfigError as err:
+        name = str(err.parameter)
+        if name.endswith("_unit"):
+            key = f"units.{name.removesuffix('_unit')}"
+        else:
+            key = f"columns.{name.removesuffix(' column')}"
+        raise ConfigError(f"{source}: {key}", err.value, err.valid) from None
     return geometry, fmt
 
 

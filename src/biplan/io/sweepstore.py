@@ -12,6 +12,12 @@ same way, so a run killed at any moment leaves only complete chunk files. ``--re
 that the manifest describes the same sweep (same config, grid, quantity settings and chunk
 size) and loads the finished chunks instead of recomputing them. netCDF stores float64 and
 int64 exactly, so a resumed map equals an uninterrupted one bit for bit.
+
+A finished chunk whose file is missing or cannot be read (truncated, overwritten) is recorded
+in :attr:`ChunkStore.damaged` with the reason and computed again. A directory holding chunk
+files but no manifest is refused: without the manifest nothing says which sweep the chunks
+belong to (restore ``manifest.json``, or remove ``chunks/`` to start again). An unreadable
+manifest is refused too.
 """
 
 from __future__ import annotations
@@ -54,6 +60,21 @@ class ChunkStore:
     resume : bool
         Keep the finished chunks of an earlier run of the same sweep. Without it, a directory
         that already holds chunks of a sweep is refused (ConfigError), never overwritten.
+
+    Attributes
+    ----------
+    damaged : dict of int to str
+        Finished chunks of the earlier run whose file is missing or unreadable, with the
+        reason; they are computed again.
+    reused : int
+        Chunks of the earlier run that are reused.
+
+    Raises
+    ------
+    ConfigError
+        ``out``: the directory holds finished chunks and ``resume`` is false, holds chunk files
+        but no manifest, or its manifest is unreadable; ``--resume``: the manifest describes
+        another sweep.
     """
 
     def __init__(
@@ -61,14 +82,15 @@ class ChunkStore:
     ) -> None:
         self.directory = Path(directory)
         self.chunk_dir = self.directory / "chunks"
-        self.chunk_dir.mkdir(parents=True, exist_ok=True)
         self.description = json.loads(json.dumps(description))
         self.key = hashlib.sha256(json.dumps(self.description, sort_keys=True).encode()).hexdigest()
         self.n_chunks = n_chunks
-        manifest = self.directory / _MANIFEST
         self.finished: set[int] = set()
-        if manifest.exists():
-            old = json.loads(manifest.read_text())
+        #: Finished chunks of the earlier run that are computed again → why (``--resume``).
+        self.damaged: dict[int, str] = {}
+        self._loaded: dict[int, dict[str, np.ndarray]] = {}
+        old = self._read_manifest()
+        if old is not None:
             if old.get("finished") and not resume:
                 raise ConfigError(
                     "out", str(self.directory), "an empty directory, or --resume to continue"
@@ -80,8 +102,55 @@ class ChunkStore:
                     "a directory of the same sweep (config, grid, settings and chunk size)",
                 )
             if resume:
-                self.finished = {c for c in old.get("finished", []) if self._path(c).exists()}
+                self._reuse(old.get("finished", []))
+        self.chunk_dir.mkdir(parents=True, exist_ok=True)
         self._write_manifest()
+
+    def _read_manifest(self) -> dict[str, Any] | None:
+        """The manifest of an earlier run (None if there is none); refuses chunk files
+        without a manifest and an unreadable manifest."""
+        manifest = self.directory / _MANIFEST
+        if not manifest.exists():
+            orphans = sorted(self.chunk_dir.glob("chunk-*.nc")) if self.chunk_dir.is_dir() else []
+            if orphans:
+                raise ConfigError(
+                    "out",
+                    str(self.directory),
+                    f"a directory with its {_MANIFEST}: it holds {len(orphans)} chunk files but "
+                    "no manifest, so they cannot be matched to this sweep (restore "
+                    f"{_MANIFEST}, or remove {self.chunk_dir} to start again)",
+                )
+            return None
+        try:
+            old = json.loads(manifest.read_text(encoding="utf-8"))
+        except (OSError, UnicodeDecodeError, json.JSONDecodeError) as err:
+            raise ConfigError(
+                "out", str(self.directory), f"a directory with a readable {_MANIFEST} ({err})"
+            ) from None
+        if not isinstance(old, dict):
+            raise ConfigError(
+                "out", str(self.directory), f"a directory with a readable {_MANIFEST}"
+            )
+        return old
+
+    def _reuse(self, finished: list[int]) -> None:
+        """Keep the finished chunks of an earlier run that read back; the others are
+        recorded in :attr:`damaged` (and computed again)."""
+        for chunk in finished:
+            if not self._path(chunk).exists():
+                self.damaged[chunk] = "its file is missing"
+                continue
+            try:
+                self._loaded[chunk] = self._read(chunk)
+            except (OSError, ValueError, KeyError) as err:
+                self.damaged[chunk] = f"its file cannot be read ({err})"
+                continue
+            self.finished.add(chunk)
+
+    @property
+    def reused(self) -> int:
+        """Number of chunks of an earlier run that are reused."""
+        return len(self._loaded)
 
     def _path(self, chunk: int) -> Path:
         return self.chunk_dir / f"chunk-{chunk:05d}.nc"
@@ -116,6 +185,11 @@ class ChunkStore:
 
     def load(self, chunk: int) -> dict[str, np.ndarray]:
         """The arrays of a finished chunk."""
+        if chunk in self._loaded:
+            return self._loaded[chunk]
+        return self._read(chunk)
+
+    def _read(self, chunk: int) -> dict[str, np.ndarray]:
         import xarray as xr
 
         with xr.open_dataset(self._path(chunk), engine="h5netcdf") as ds:
@@ -143,5 +217,8 @@ def load_map(path: str | Path) -> Any:
         p = p / MAP_FILE
     if not p.exists():
         raise ConfigError("map", str(path), f"a map directory holding {MAP_FILE} or a .nc file")
-    with xr.open_dataset(p, engine="h5netcdf") as ds:
-        return ds.load()
+    try:
+        with xr.open_dataset(p, engine="h5netcdf") as ds:
+            return ds.load()
+    except (OSError, ValueError) as err:
+        raise ConfigError("map", str(path), f"a readable netCDF map ({err})") from None

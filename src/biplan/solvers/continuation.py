@@ -28,7 +28,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from biplan._errors import ConfigError, check_range
+from biplan._errors import ConfigError, check_integer, check_range
 from biplan._jax import jnp
 from biplan.assembly import Load, Model
 from biplan.solvers import _pathkernel as pk
@@ -71,9 +71,9 @@ class _Stepper:
         check_range(f"{name}.atol", self.atol, low=0.0)
         check_range(f"{name}.event_tolerance", self.event_tolerance, low=0.0, high=1.0)
         for attr in ("max_steps", "max_iterations"):
-            v = getattr(self, attr)
-            if isinstance(v, bool) or not isinstance(v, int) or v < 1:
-                raise ConfigError(f"{name}.{attr}", v, "an integer ≥ 1")
+            object.__setattr__(
+                self, attr, check_integer(f"{name}.{attr}", getattr(self, attr), low=1)
+            )
 
     natural = True
 

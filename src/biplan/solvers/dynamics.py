@@ -28,7 +28,7 @@ from typing import Any
 
 import numpy as np
 
-from biplan._errors import ConfigError, check_finite, check_range
+from biplan._errors import ConfigError, check_finite, check_integer, check_range
 from biplan._jax import jax, jnp, kernel_options
 from biplan._kernels import stored_jit
 from biplan.assembly import Load, Model
@@ -91,10 +91,9 @@ class GeneralizedAlpha:
         check_range("GeneralizedAlpha.rayleigh", self.rayleigh, low=0.0, low_open=False)
         check_range("GeneralizedAlpha.atol", self.atol, low=0.0)
         for name in ("max_iterations", "max_halvings", "save_every"):
-            v = getattr(self, name)
             low = 0 if name == "max_halvings" else 1
-            if isinstance(v, bool) or not isinstance(v, int) or v < low:
-                raise ConfigError(f"GeneralizedAlpha.{name}", v, f"an integer ≥ {low}")
+            v = check_integer(f"GeneralizedAlpha.{name}", getattr(self, name), low=low)
+            object.__setattr__(self, name, v)
 
     def coefficients(self) -> tuple[float, float, float, float]:
         """(α_m, α_f, γ, β) of the method (Chung & Hulbert)."""

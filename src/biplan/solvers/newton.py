@@ -90,10 +90,12 @@ class Newton:
         check_range("Newton.atol", self.atol, low=0.0)
         check_range("Newton.armijo", self.armijo, low=0.0, high=0.5)
         for name in ("max_steps", "max_backtracks"):
-            v = getattr(self, name)
-            if isinstance(v, bool) or not isinstance(v, int) or v < 1:
-                raise ConfigError(f"Newton.{name}", v, "an integer ≥ 1")
-        check_integer("Newton.free_steps", self.free_steps, low=0)
+            object.__setattr__(
+                self, name, check_integer(f"Newton.{name}", getattr(self, name), low=1)
+            )
+        object.__setattr__(
+            self, "free_steps", check_integer("Newton.free_steps", self.free_steps, low=0)
+        )
         if not isinstance(self.contact_restart, bool):
             raise ConfigError("Newton.contact_restart", self.contact_restart, "True or False")
 

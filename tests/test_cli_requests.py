@@ -1,0 +1,403 @@
+"""Bad requests on the command line fail first: one line naming what was typed, exit status 2,
+no traceback, and nothing solved, compiled, enumerated or swept before.
+
+Every test here runs in-process and never reaches a solver: the ``no_solve`` fixture makes
+building a model, sweeping, enumerating, fitting or reading a result fail the test.
+"""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+import biplan
+from biplan.cli.main import EXIT_BIPLAN_ERROR, main
+
+ROOT = Path(__file__).resolve().parents[1]
+CONFIG = ROOT / "examples" / "semi_bistable.toml"
+FULLY = ROOT / "examples" / "fully_bistable_4.toml"
+DATA = ROOT / "examples" / "data"
+STABILITY_GRID = ["--displacement", "0.1", "--C", "1"]
+
+
+def _forbidden(*_: object, **__: object) -> None:
+    raise AssertionError("the request reached the solver before it was refused")
+
+
+@pytest.fixture
+def no_solve(monkeypatch: pytest.MonkeyPatch) -> None:
+    """Building a model, a sweep, a state enumeration, a fit or reading a result fails."""
+    import biplan.analysis.calibration
+    import biplan.analysis.quasistatic
+    import biplan.analysis.states
+    import biplan.analysis.sweeps
+    import biplan.cli.reproduce
+    import biplan.io.results
+
+    monkeypatch.setattr(biplan, "Model", _forbidden)
+    monkeypatch.setattr(biplan.analysis.sweeps, "sweep", _forbidden)
+    monkeypatch.setattr(biplan.analysis.states, "enumerate_states", _forbidden)
+    monkeypatch.setattr(biplan.analysis.quasistatic, "displacement_sweep", _forbidden)
+    monkeypatch.setattr(biplan.analysis.calibration, "calibrate_trilinear", _forbidden)
+    monkeypatch.setattr(biplan.io.results, "load_result", _forbidden)
+    monkeypatch.setattr(biplan.cli.reproduce, "run_stages", _forbidden)
+
+
+def _refused(capsys: pytest.CaptureFixture[str], args: list[str], *needles: str) -> str:
+    """Run ``biplan ARGS``; check exit status 2, one line on stderr holding every needle, no
+    traceback; return that line."""
+    with pytest.raises(SystemExit) as info:
+        main([str(a) for a in args])
+    captured = capsys.readouterr()
+    text = captured.out + captured.err
+    assert info.value.code == EXIT_BIPLAN_ERROR, text
+    assert "Traceback" not in text
+    lines = [line for line in captured.err.splitlines() if line.strip()]
+    assert len(lines) == 1, captured.err
+    for needle in needles:
+        assert needle in lines[0], (needle, lines[0])
+    return lines[0]
+
+
+# --- 1. the output location -----------------------------------------------------------------
+def _commands(out: Path) -> dict[str, list[str]]:
+    """Every subcommand with an output location, writing to ``out``."""
+    return {
+        "demo": ["demo", "--out", out],
+        "respond": ["respond", CONFIG, "--out", out],
+        "states": ["states", FULLY, "--out", out],
+        "validate": ["validate", CONFIG, DATA / "mft_semi_bistable", "--out", out],
+        "map design": ["map", "design", CONFIG, "--b", "0.5", "--C", "1", "--out", out],
+        "map stability": ["map", "stability", CONFIG, *STABILITY_GRID, "--out", out],
+        "reproduce": ["reproduce", "--out", out],
+        "plot": ["plot", CONFIG, "--kind", "response", "--out", out / "fig.png"],
+        "calibrate": ["calibrate", "trilinear", DATA / "cft_trilinear", "--out", out],
+    }
+
+
+COMMANDS = list(_commands(Path("x")))
+
+
+@pytest.mark.parametrize("command", COMMANDS)
+@pytest.mark.parametrize("where", ["/proc/biplan-out", "/", "/usr", "/etc/biplan"])
+def test_system_directory_is_refused(
+    no_solve: None, capsys: pytest.CaptureFixture[str], command: str, where: str
+) -> None:
+    args = _commands(Path(where))[command]
+    out = args[args.index("--out") + 1]
+    _refused(capsys, args, "--out", repr(str(out)), "system director")
+
+
+@pytest.mark.parametrize("command", COMMANDS)
+def test_output_inside_a_file_is_refused(
+    no_solve: None, tmp_path: Path, capsys: pytest.CaptureFixture[str], command: str
+) -> None:
+    blocker = tmp_path / "a-file"
+    blocker.write_text("")
+    line = _refused(capsys, _commands(blocker / "sub")[command], "--out", "is a file")
+    assert str(blocker) in line
+    assert not (tmp_path / "sub").exists()
+
+
+@pytest.mark.parametrize("command", [c for c in COMMANDS if c not in ("plot", "calibrate")])
+def test_existing_file_where_a_directory_is_expected_is_refused(
+    no_solve: None, tmp_path: Path, capsys: pytest.CaptureFixture[str], command: str
+) -> None:
+    blocker = tmp_path / "out"
+    blocker.write_text("keep me")
+    _refused(capsys, _commands(blocker)[command], "--out", str(blocker), "existing file")
+    assert blocker.read_text() == "keep me"
+
+
+def test_directory_where_a_written_file_is_expected_is_refused(
+    no_solve: None, tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    (tmp_path / "out" / "response.nc").mkdir(parents=True)
+    args = ["respond", CONFIG, "--out", tmp_path / "out"]
+    _refused(capsys, args, "--out", "response.nc is a directory")
+    (tmp_path / "fig.png").mkdir()
+    args = ["plot", CONFIG, "--kind", "response", "--out", tmp_path / "fig.png"]
+    _refused(capsys, args, "--out", "existing directory")
+
+
+@pytest.mark.parametrize("command", ["respond", "map design", "plot", "calibrate"])
+def test_unwritable_location_is_refused(
+    no_solve: None,
+    tmp_path: Path,
+    capsys: pytest.CaptureFixture[str],
+    monkeypatch: pytest.MonkeyPatch,
+    command: str,
+) -> None:
+    """The permission test itself (root may write anywhere, so it is faked here)."""
+    from biplan.cli import _checks
+
+    monkeypatch.setattr(_checks, "_writable", lambda folder: Path(folder) != tmp_path)
+    _refused(capsys, _commands(tmp_path / "new")[command], "--out", f"{tmp_path} is not writable")
+
+
+# --- 2. values out of range are refused, never replaced or ignored ---------------------------
+@pytest.mark.parametrize(
+    ("args", "needles"),
+    [
+        (["respond", CONFIG, "--max-step", "0"], ("--max-step", "0.0", "≥ 0.05")),
+        (["respond", CONFIG, "--step", "0.2"], ("--step", "0.2", "≤ 0.1", "--max-step")),
+        (["respond", CONFIG, "--dynamic", "--damping-ratio", "-1"],
+         ("--damping-ratio", "-1.0", "≥ 0")),
+        (["respond", CONFIG, "--dynamic", "--hold", "-1"], ("--hold", "-1.0", "≥ 0 s")),
+        (["respond", CONFIG, "--dynamic", "--time-step", "5"], ("--time-step", "5.0", "(0, 2]")),
+        (["respond", CONFIG, "--dynamic", "--rate", "0"], ("--rate", "0.0", "non-zero")),
+        (["respond", CONFIG, "--stop", "0"], ("--stop", "0.0", "non-zero")),
+        (["respond", CONFIG, "--max-steps", "0"], ("--max-steps", "0", "≥ 1")),
+        (["respond", CONFIG, "--control", "displacement", "--method", "stable", "--step",
+          "0.001"], ("--step", "0.001", "9000 steps", "--max-steps 2000")),
+        (["map", "design", CONFIG, "--b", "0.5", "--C", "1", "--workers", "0"],
+         ("--workers", "0", "≥ 1")),
+        (["map", "design", CONFIG, "--b", "0.5", "--C", "1", "--chunk-size", "0"],
+         ("--chunk-size", "0", "≥ 1")),
+        (["map", "design", CONFIG, "--b", "0.5", "--C", "1", "--steps", "1"],
+         ("--steps", "1", "[2, 512]")),
+        (["map", "stability", CONFIG, "--displacement", "0.1", "--C", "1", "--max-equilibria",
+          "0"], ("--max-equilibria", "0", "≥ 1")),
+        (["calibrate", "trilinear", DATA / "cft_trilinear", "--seed", "-1"],
+         ("--seed", "-1", "≥ 0")),
+        (["plot", CONFIG, "--kind", "tube", "--out", "x.png", "--elev", "nan"],
+         ("--elev", "nan", "finite")),
+    ],
+)  # fmt: skip
+def test_value_out_of_range_is_refused(
+    no_solve: None,
+    tmp_path: Path,
+    capsys: pytest.CaptureFixture[str],
+    monkeypatch: pytest.MonkeyPatch,
+    args: list[str],
+    needles: tuple[str, ...],
+) -> None:
+    monkeypatch.chdir(tmp_path)
+    _refused(capsys, args, *needles)
+
+
+@pytest.mark.parametrize(
+    ("args", "needles"),
+    [
+        (["respond", CONFIG, "--damping-ratio", "0.1"], ("--damping-ratio", "0.1", "--dynamic")),
+        (["respond", CONFIG, "--rate", "1"], ("--rate", "1.0", "without --dynamic")),
+        (["respond", CONFIG, "--dynamic", "--stop", "3"], ("--stop", "3.0", "with --dynamic")),
+        (["respond", CONFIG, "--control", "displacement", "--method", "stable", "--max-step",
+          "0.3"], ("--max-step", "0.3", "--method stable")),
+        (["map", "design", CONFIG, "--b", "0.5", "--C", "1", "--workers", "2", "--threads",
+          "2"], ("--threads", "2", "--workers > 1")),
+        (["map", "design", CONFIG, "--b", "0.5", "--C", "1", "--scheduler", "tcp://h:1",
+          "--workers", "3"], ("--workers", "3", "--scheduler")),
+    ],
+)  # fmt: skip
+def test_option_that_would_be_ignored_is_refused(
+    no_solve: None,
+    tmp_path: Path,
+    capsys: pytest.CaptureFixture[str],
+    monkeypatch: pytest.MonkeyPatch,
+    args: list[str],
+    needles: tuple[str, ...],
+) -> None:
+    monkeypatch.chdir(tmp_path)
+    _refused(capsys, args, *needles, "no effect")
+
+
+@pytest.mark.parametrize(
+    ("kind", "out", "needles"),
+    [
+        ("response", "o", ("'o'", "no suffix", ".png", ".pdf", ".svg")),
+        ("response", "o.xyz", ("'o.xyz'", "suffix .xyz", ".png")),
+        ("animation", "o.png", ("'o.png'", ".gif, .mp4")),
+        ("tube", "o.gif.txt", ("suffix .txt", ".vtu", ".pvd")),
+    ],
+)
+def test_plot_suffix_is_refused_naming_the_supported_ones(
+    no_solve: None,
+    tmp_path: Path,
+    capsys: pytest.CaptureFixture[str],
+    monkeypatch: pytest.MonkeyPatch,
+    kind: str,
+    out: str,
+    needles: tuple[str, ...],
+) -> None:
+    monkeypatch.chdir(tmp_path)
+    _refused(capsys, ["plot", CONFIG, "--kind", kind, "--out", out], "--out", *needles)
+    assert not list(tmp_path.iterdir())  # nothing written (no o.png)
+
+
+# --- 3. messages name what the user typed ------------------------------------------------------
+@pytest.mark.parametrize(
+    ("args", "typed", "internal"),
+    [
+        (["respond", CONFIG, "--dynamic", "--duration", "-1"],
+         "invalid --duration = -1.0: must be > 0 s", "load.times"),
+        (["respond", CONFIG, "--step", "-0.1"], "invalid --step = -0.1", "ArcLength"),
+        (["map", "design", CONFIG, "--b", "0.5", "--C", "1", "--rate", "0"],
+         "invalid --rate = 0.0", "ramp."),
+        (["map", "design", CONFIG, "--b", "0.5", "--C", "1", "--after-snap", "jump"],
+         "invalid --after-snap = 'jump'", "ramp."),
+        (["map", "design", CONFIG, "--b", "0.5", "--C", "-1"], "invalid --C = -1.0", "grid."),
+        (["map", "stability", CONFIG, "--displacement", "0.1", "--C", "1", "--b", "5"],
+         "invalid --b = 5.0", "helical_angle"),
+        (["map", "stability", CONFIG, "--displacement", "0.1", "--C", "1", "--seeding", "x"],
+         "invalid --seeding = 'x'", "search."),
+        (["calibrate", "trilinear", DATA / "cft_trilinear", "--confidence", "1.5"],
+         "invalid --confidence = 1.5: must be in (0, 1)", "invalid confidence"),
+        (["calibrate", "trilinear", DATA / "cft_trilinear", "--radius", "-2"],
+         "invalid --radius = -2.0: must be > 0 mm", "invalid radius"),
+        (["validate", CONFIG, DATA / "mft_semi_bistable", "--min-points", "1"],
+         "invalid --min-points = 1", "min_points"),
+    ],
+)  # fmt: skip
+def test_message_names_the_option_not_the_internal_parameter(
+    no_solve: None,
+    tmp_path: Path,
+    capsys: pytest.CaptureFixture[str],
+    monkeypatch: pytest.MonkeyPatch,
+    args: list[str],
+    typed: str,
+    internal: str,
+) -> None:
+    monkeypatch.chdir(tmp_path)
+    line = _refused(capsys, args, typed)
+    assert internal not in line
+
+
+def test_config_error_names_the_toml_key(
+    no_solve: None, tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    bad = tmp_path / "bad.toml"
+    bad.write_text(CONFIG.read_text().replace("pitch = 3.6", "pitch = -3.6"))
+    _refused(capsys, ["respond", bad, "--out", tmp_path / "o"], "geometry.pitch = -3.6", "> 0")
+    geometry = tmp_path / "cft.toml"
+    geometry.write_text("[geometry]\nn_folds = 0\n")
+    args = ["calibrate", "linear", DATA / "cft_linear", "--config", geometry]
+    _refused(capsys, [*args, "--out", tmp_path / "law.toml"], "geometry.n_folds = 0", "≥ 1")
+
+
+# --- 7. state labels of ``biplan path`` -------------------------------------------------------
+@pytest.mark.parametrize(
+    ("start", "target", "bad"),
+    [("2A", "zz", "TARGET = 'zz'"), ("2a", "1B2", "TARGET = '1B2'"),
+     ("80", "1B", "START = '80'"), ("0x2A", "1B", "START = '0x2A'"),
+     ("2A.1", "1B", "START = '2A.1'")],
+)  # fmt: skip
+def test_path_labels_are_checked_before_enumerating(
+    no_solve: None, capsys: pytest.CaptureFixture[str], start: str, target: str, bad: str
+) -> None:
+    _refused(capsys, ["path", FULLY, start, target], bad, "2 hexadecimal digits from 00 to 7F")
+
+
+def test_state_names_are_read_in_any_case() -> None:
+    from biplan.cli.states import state_name
+
+    tube = biplan.load_config(FULLY)
+    assert state_name("START", "2a", tube) == "2A"
+    assert state_name("START", " 1b.2", tube) == "1B.2"
+    assert state_name("TARGET", "00", tube) == "00"
+
+
+# --- 5. maps in which points failed --------------------------------------------------------
+def _fake_ramp(monkeypatch: pytest.MonkeyPatch, status: list[int]) -> list[int]:
+    """Replace the batched force ramp by one that returns ``status`` (by point, in order) and
+    zeros; returns the list of batch sizes it was called with."""
+    from biplan.analysis.design_map import ResponseEvaluator
+
+    calls: list[int] = []
+    codes = iter(status)
+
+    def evaluate(self, tubes, loads, batch):  # type: ignore[no-untyped-def]
+        calls.append(len(tubes))
+        out = {name: np.zeros(len(tubes)) for name in self.variables(tubes[0])}
+        out["status"] = np.array([next(codes) for _ in tubes], dtype=np.int64)
+        return out
+
+    monkeypatch.setattr(ResponseEvaluator, "evaluate", evaluate)
+    return calls
+
+
+MAP = ["map", "design", CONFIG, "--b", "0.5,0.55", "--C", "1", "--threads", "1"]
+
+
+def test_map_where_every_point_failed_exits_non_zero(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str], monkeypatch: pytest.MonkeyPatch
+) -> None:
+    _fake_ramp(monkeypatch, [1, 1])
+    line = _refused(capsys, [*MAP, "--out", tmp_path / "m", "--quiet"], "every one of the 2")
+    assert "failed" in line and str(tmp_path / "m" / "map.nc") in line
+    assert (tmp_path / "m" / "map.nc").is_file()  # the statuses are kept
+
+
+def test_map_with_failed_points_says_how_many(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str], monkeypatch: pytest.MonkeyPatch
+) -> None:
+    _fake_ramp(monkeypatch, [0, 1])
+    with pytest.raises(SystemExit) as info:
+        main([str(a) for a in [*MAP, "--out", tmp_path / "m", "--quiet"]])
+    assert info.value.code == 0
+    err = capsys.readouterr().err
+    assert "warning: 1 of 2 points failed" in err  # on the terminal, even with --quiet
+
+
+# --- 6. resume ------------------------------------------------------------------------------
+def _two_chunk_map(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> tuple[Path, list[int]]:
+    """A finished two-chunk map (fake ramp) in tmp_path/m; returns it and the call log."""
+    calls = _fake_ramp(monkeypatch, [0] * 10)
+    out = tmp_path / "m"
+    with pytest.raises(SystemExit) as info:
+        main([str(a) for a in [*MAP, "--chunk-size", "1", "--out", out, "--quiet"]])
+    assert info.value.code == 0 and calls == [1, 1]
+    calls.clear()
+    return out, calls
+
+
+def test_resume_recomputes_a_truncated_chunk_and_says_so(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str], monkeypatch: pytest.MonkeyPatch
+) -> None:
+    out, calls = _two_chunk_map(tmp_path, monkeypatch)
+    chunk = out / "chunks" / "chunk-00001.nc"
+    chunk.write_bytes(chunk.read_bytes()[:100])
+    capsys.readouterr()
+    with pytest.raises(SystemExit) as info:
+        main([str(a) for a in [*MAP, "--chunk-size", "1", "--out", out, "--resume"]])
+    captured = capsys.readouterr()
+    assert info.value.code == 0, captured.err
+    assert "Traceback" not in captured.out + captured.err
+    assert "chunk 1" in captured.err and "cannot be read" in captured.err
+    assert "computing it again" in captured.err
+    assert "1 of 2 chunks reused" in captured.out
+    assert calls == [1]  # only the damaged chunk
+    assert json.loads((out / "manifest.json").read_text())["finished"] == [0, 1]
+
+
+def test_resume_without_manifest_is_refused(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str], monkeypatch: pytest.MonkeyPatch
+) -> None:
+    out, calls = _two_chunk_map(tmp_path, monkeypatch)
+    (out / "manifest.json").unlink()
+    capsys.readouterr()
+    args = [*MAP, "--chunk-size", "1", "--out", out]
+    _refused(capsys, [*args, "--resume"], "--out", "manifest.json", "2 chunk files")
+    _refused(capsys, args, "--out", "manifest.json")  # nor overwritten without --resume
+    assert calls == [] and len(list((out / "chunks").glob("chunk-*.nc"))) == 2
+
+
+def test_chunk_store_reports_missing_and_unreadable_chunks(tmp_path: Path) -> None:
+    from biplan.io.sweepstore import ChunkStore
+
+    desc = {"grid": [1, 2, 3]}
+    store = ChunkStore(tmp_path, desc, 3, resume=False)
+    for c in range(3):
+        store.save(c, {"x": np.full(2, float(c))})
+    (tmp_path / "chunks" / "chunk-00001.nc").write_bytes(b"garbage")
+    (tmp_path / "chunks" / "chunk-00002.nc").unlink()
+    again = ChunkStore(tmp_path, desc, 3, resume=True)
+    assert again.reused == 1 and again.done(0) and not again.done(1) and not again.done(2)
+    assert "cannot be read" in again.damaged[1] and "missing" in again.damaged[2]
+    np.testing.assert_array_equal(again.load(0)["x"], [0.0, 0.0])
+    (tmp_path / "manifest.json").write_text("{not json")
+    with pytest.raises(biplan.ConfigError, match=r"readable manifest\.json"):
+        ChunkStore(tmp_path, desc, 3, resume=True)
