@@ -227,9 +227,9 @@ def _reference_load_point(layout: TubeLayout, p: ModelParams) -> chain.Kinematic
 
 
 def load_height(layout: TubeLayout, p: ModelParams, q: Array) -> Array:
-    """Axial displacement z_p(q) [mm] of the load point (MODEL CHOICE W1)."""
-    kin_ref = jax.lax.stop_gradient(_reference_load_point(layout, p))
-    return chain.load_height(layout, p.geometry, _kin(layout, p, q), kin_ref)
+    """Axial displacement z_p(q) [mm] of the load point (MODEL CHOICE W1), as the assembly
+    computes it (:func:`biplan.elements.load_point_height`)."""
+    return elements.load_point_height(layout, p.geometry, q)
 
 
 def _terms(

@@ -174,7 +174,7 @@ def _one_hot(index: np.ndarray, size: int, mask: np.ndarray | None = None) -> np
 
 # --- element functions -------------------------------------------------------------------
 def module_constraints(x: Array, ref: Array, n_c: Array, n_sp: Array) -> Array:
-    """[g_C, g_F, w0, wa] [mm] of one module from its coordinates x = (u, φ1, φ2)."""
+    """(g_C, g_F, w0, wa) [mm] of one module from its coordinates x = (u, φ1, φ2)."""
     return jnp.concatenate([guides(x, ref, n_c), helical_boundary(x, ref, n_sp)])
 
 
