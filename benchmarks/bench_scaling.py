@@ -1,7 +1,7 @@
 """How the core's cost grows with the number of modules N: cold start and warm step cost.
 
 Run:  .venv/bin/python benchmarks/bench_scaling.py [--sizes 3 6 12 24 48] [--fully 4 8]
-      [--oracle-max 24] [--timeout 600]
+      [--oracle-max 24] [--timeout 600] [--pieces]
 
 For each N, a fresh process with an empty JAX cache and kernel store (a tube never seen):
 
@@ -16,7 +16,9 @@ For each N, a fresh process with an empty JAX cache and kernel store (a tube nev
 
 Semi-bistable: the SI Table laws and geometry with N modules on a base fold. Fully bistable:
 ``designs.fully_bistable(n_modules=N)`` (provisional laws). Prints one row per (design, N,
-assembly) and the local/oracle ratios.
+assembly) and the local/oracle ratios. ``--pieces`` instead times each piece of the
+assembly under its own ``jax.jit`` at ``--sizes`` (element terms, chain term, KKT Jacobian,
+oracle Jacobian, Jacobian + LU): compile seconds and run milliseconds.
 """
 
 from __future__ import annotations
@@ -77,6 +79,51 @@ print(json.dumps(dict(observe_ms=1e3 * min(obs) / states, reference=t1 - t0, pat
 """
 
 
+PIECES = r"""
+import json, os, time
+import numpy as np
+import biplan
+from biplan import _oracle, assembly as asm, elements as E
+from biplan._jax import jax, jnp
+n = {n}
+t = biplan.designs.semi_bistable()
+tube = biplan.Tube.uniform(radius=2.0, pitch=3.6, helical_angle=60.0, n_modules=n,
+    helical=t.helical_laws[0], circular=t.circular_laws[0], base_fold=True)
+m = biplan.Model(tube); L = m.layout; p = m.params
+z = jnp.asarray(np.full(m.n_unknowns, 0.01)); load = asm.Load(1.3, 0.0, 0.0).for_kernel()
+nq, ng = L.n_coordinates, m.n_guides
+pieces = dict(
+    elements=lambda zz: E.local_terms(L, p, zz[:nq], zz[nq:nq + ng], zz[nq + ng:-1]),
+    chain=lambda zz: E.chain_terms(L, p.geometry, zz[:nq]),
+    jacobian=lambda zz: asm.kkt_jacobian(L, p, zz, load),
+    oracle_jacobian=lambda zz: _oracle.kkt_jacobian(L, p, zz, load),
+    jacobian_and_lu=lambda zz: jax.scipy.linalg.lu_factor(asm.kkt_jacobian(L, p, zz, load)),
+)
+out = {{}}
+for name, f in pieces.items():
+    t0 = time.perf_counter(); jf = jax.jit(f); jax.block_until_ready(jf(z)); t1 = time.perf_counter()
+    for _ in range(50):
+        jax.block_until_ready(jf(z))
+    out[name] = (t1 - t0, 1e3 * (time.perf_counter() - t1) / 50)
+print(json.dumps(out))
+"""
+
+
+def pieces(n: int) -> dict:
+    """Compile [s] and run [ms] times of the assembly's pieces, each under its own jit."""
+    with tempfile.TemporaryDirectory() as cache:
+        env = dict(os.environ, BIPLAN_JAX_CACHE=cache, BIPLAN_KERNEL_STORE="off")
+        env.pop("BIPLAN_FAST_COMPILE", None)
+        out = subprocess.run(
+            [sys.executable, "-c", PIECES.format(n=n)],
+            env=env,
+            capture_output=True,
+            text=True,
+            check=True,
+        )
+        return json.loads(out.stdout.strip().splitlines()[-1])
+
+
 def run(n: int, design: str, oracle: bool, timeout: float) -> dict | None:
     with tempfile.TemporaryDirectory() as cache:
         env = dict(os.environ, BIPLAN_JAX_CACHE=cache, BIPLAN_KERNEL_STORE="off")
@@ -102,7 +149,17 @@ def main() -> None:
     ap.add_argument("--fully", type=int, nargs="*", default=[4, 8])
     ap.add_argument("--oracle-max", type=int, default=24)
     ap.add_argument("--timeout", type=float, default=600.0)
+    ap.add_argument(
+        "--pieces",
+        action="store_true",
+        help="only time the assembly's pieces (compile s / run ms) at --sizes",
+    )
     args = ap.parse_args()
+    if args.pieces:
+        for n in args.sizes:
+            row = ", ".join(f"{k} {c:.1f} s / {r:.3f} ms" for k, (c, r) in pieces(n).items())
+            print(f"N = {n}: {row}", flush=True)
+        return
     head = f"{'design':6} {'N':>3} {'n_z':>5} {'assembly':8} {'ref s':>7} {'path s':>7} {'states':>6} {'warm ms/step':>12}  peak F"
     print(head)
     cases = [("semi", n) for n in args.sizes] + [("fully", n) for n in args.fully]

@@ -5,7 +5,7 @@ chunks finish (any order); :func:`biplan.analysis.sweeps.sweep` streams each res
 sink. Workers receive only picklable descriptions (the frozen :class:`~biplan.Tube`, the grid,
 the evaluator) and run :func:`~biplan.analysis.sweeps.evaluate_chunk`; each worker compiles its
 kernels once per layout (module-level caches) and shares the persistent JAX compilation cache
-that importing biplan configures.
+that biplan configures when its core is first imported (:func:`biplan._jax.configure`).
 
 * :func:`dask_runner` — a ``LocalCluster`` on 127.0.0.1 (processes, one thread each) by
   default, or ``Client(address)`` of a user's scheduler; falls back to :func:`process_runner`
