@@ -23,6 +23,7 @@ from biplan.assembly import (
     _reference_load_point,
     _sizes,
     _split,
+    kkt_matrix,
     sfb,
 )
 from biplan.geometry import chain
@@ -99,7 +100,9 @@ def kkt_jacobian(layout: TubeLayout, p: ModelParams, z: Array, load: Load) -> Ar
     K = ∇²_q L (autodiff Hessian over the n_q coordinates), [G; C; aᵀ] the autodiff Jacobian
     of (g, w_∂, z_p), D_w = diag(ŵ/ρ − 1), D_λ = diag(c (ŵ/ρ − 1) + λ/ρ − 1),
     ρ = √(ŵ² + λ² + ε²), ŵ = w + c λ (c: ``ModelOptions.contact_compliance``).
-    Cheaper to compile and run than differentiating the residual over all unknowns.
+    The blocks come from this module's global autodiff; their arrangement is the
+    assembly's :func:`biplan.assembly.kkt_matrix` (itself checked against the autodiff of the
+    whole residual, ``Model.jacobian_autodiff``).
     """
     nq, ng, nc = _sizes(layout)
     q, _lam, lam_c, _mu = _split(layout, z)
@@ -107,24 +110,8 @@ def kkt_jacobian(layout: TubeLayout, p: ModelParams, z: Array, load: Load) -> Ar
     rest = z[nq:]
     k = jax.hessian(lambda qq: lagrangian(layout, p, jnp.concatenate([qq, rest]), load, kin_ref))(q)
     jc = jax.jacfwd(lambda qq: _constraint_values(layout, p, qq, kin_ref))(q)
-    w = _constraint_values(layout, p, q, kin_ref)[ng : ng + nc] + p.compliance * lam_c
-    g_mat, c_mat, a = jc[:ng], jc[ng : ng + nc], jc[-1]
-    rho = jnp.sqrt(w**2 + lam_c**2 + p.smoothing**2)
-    d = load.displacement_control
-    zeros = jnp.zeros
-    top = jnp.concatenate([k, g_mat.T, -c_mat.T, (d * a)[:, None]], axis=1)
-    mid = jnp.concatenate([g_mat, zeros((ng, ng + nc + 1))], axis=1)
-    sfb_rows = jnp.concatenate(
-        [
-            (w / rho - 1.0)[:, None] * c_mat,
-            zeros((nc, ng)),
-            jnp.diag(p.compliance * (w / rho - 1.0) + lam_c / rho - 1.0),
-            zeros((nc, 1)),
-        ],
-        axis=1,
-    )
-    last = jnp.concatenate([d * a, zeros(ng + nc), (1.0 - d)[None]])[None, :]
-    return jnp.concatenate([top, mid, sfb_rows, last], axis=0)
+    gaps = _constraint_values(layout, p, q, kin_ref)[ng : ng + nc]
+    return kkt_matrix(p, load, k, jc[:ng], jc[ng : ng + nc], jc[-1], gaps, lam_c)
 
 
 def state_data(layout: TubeLayout, p: ModelParams, z: Array, load: Load) -> StateData:

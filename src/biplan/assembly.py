@@ -45,6 +45,7 @@ __all__ = [
     "guide_values",
     "kernels",
     "kkt_jacobian",
+    "kkt_matrix",
     "phase_fractions",
     "residual",
     "sizes",
@@ -287,12 +288,28 @@ def kkt_jacobian(layout: TubeLayout, p: ModelParams, z: Array, load: Load) -> Ar
     D_w = diag(ŵ/ρ − 1), D_λ = diag(c (ŵ/ρ − 1) + λ/ρ − 1), ρ = √(ŵ² + λ² + ε²), ŵ = w + c λ
     (c: ``ModelOptions.contact_compliance``).
     """
-    _, ng, nc = _sizes(layout)
     local, chain_part, coef, _ = _terms(layout, p, z, load, second_order=True)
     _, _, lam_c, _ = _split(layout, z)
     k = _lagrangian_hessian(p, local, chain_part, coef)
-    g_mat, c_mat, a = local.guide_jacobian, local.gap_jacobian, chain_part.gradient
-    w = local.gaps + p.compliance * lam_c
+    return kkt_matrix(
+        p, load, k, local.guide_jacobian, local.gap_jacobian, chain_part.gradient, local.gaps, lam_c
+    )
+
+
+def kkt_matrix(
+    p: ModelParams,
+    load: Load,
+    k: Array,
+    g_mat: Array,
+    c_mat: Array,
+    a: Array,
+    gaps: Array,
+    lam_c: Array,
+) -> Array:
+    """The KKT Jacobian of :func:`kkt_jacobian` from its blocks: K (n_q, n_q), G (n_g, n_q),
+    C (n_c, n_q), a = ∇z_p (n_q,), the gaps w_∂ (n_c,) and the contact multipliers λ_∂."""
+    ng, nc = g_mat.shape[0], c_mat.shape[0]
+    w = gaps + p.compliance * lam_c
     rho = jnp.sqrt(w**2 + lam_c**2 + p.smoothing**2)
     d = load.displacement_control
     zeros = jnp.zeros
