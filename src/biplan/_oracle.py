@@ -20,7 +20,6 @@ from biplan.assembly import (
     _energies,
     _gaps,
     _kin,
-    _reference_load_point,
     _sizes,
     _split,
     kkt_matrix,
@@ -32,6 +31,11 @@ from biplan.geometry.tube import TubeLayout
 __all__ = ["kkt_jacobian", "lagrangian", "residual", "state_data"]
 
 Array = Any
+
+
+def _reference_load_point(layout: TubeLayout, p: ModelParams) -> chain.Kinematics:
+    """Kinematics at q = 0 (the reference of the load point's displacement)."""
+    return _kin(layout, p, jnp.zeros(layout.n_coordinates))
 
 
 def lagrangian(

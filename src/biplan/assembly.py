@@ -12,8 +12,10 @@ control on. The equilibrium residual (MODEL §11) is::
 
     r = [∇_q L,  g(q),  φ_SFB(w_∂(q), λ_∂),  d (z_p − U) + (1 − d) μ]
 
-with φ_SFB(w, λ) = √(w² + λ² + ε²) − (w + λ) (SI Eq. sfb). Gradients, Hessians and Jacobians
-come from autodiff of these functions; each is ``jit``-compiled once per tube *layout*
+with φ_SFB(w, λ) = √(w² + λ² + ε²) − (w + λ) (SI Eq. sfb). The residual, the KKT Jacobian and
+the Hessians are assembled from per-element autodiff (:mod:`biplan.elements`; the whole-tube
+autodiff of L is the test oracle, :mod:`biplan._oracle`); each kernel is ``jit``-compiled once
+per tube *layout*
 (:class:`~biplan.geometry.TubeLayout`), with geometry and law numbers passed as traced
 parameters, so sweeping R, l, β or law coefficients never recompiles.
 """
@@ -221,10 +223,6 @@ def _gaps(layout: TubeLayout, p: ModelParams, kin: chain.Kinematics) -> Array:
 def contact_gaps(layout: TubeLayout, p: ModelParams, q: Array) -> Array:
     """Contact gaps w_∂(q) [mm]: helical (w0, wa) per module, then connector points (MODEL C1)."""
     return _gaps(layout, p, _kin(layout, p, q))
-
-
-def _reference_load_point(layout: TubeLayout, p: ModelParams) -> chain.Kinematics:
-    return _kin(layout, p, jnp.zeros(layout.n_coordinates))
 
 
 def load_height(layout: TubeLayout, p: ModelParams, q: Array) -> Array:
