@@ -4,11 +4,12 @@
 path or trajectory:
 
 * the phase-1 peak: the largest end force before the first loss of stability, the first snap
-  of a stable-branch sweep or the first fall of the force, whichever comes first [N], and the
-  load-point displacement there [mm];
+  or the first fall of the force, whichever comes first [N], and the load-point displacement
+  there [mm] (NaN when the response never leaves phase 1: its largest force is no peak);
 * the spinodal regime: the displacement span [mm] over which the recorded equilibria are
   unstable (λ_min(H_r) < 0) — first unstable to last unstable state;
-* softening: the span [mm] over which the force falls along stable states — a fold's
+* softening: the span [mm] over which the force falls with rising displacement along stable
+  states of one branch — a fold's
   spinodal branch held by displacement control, i.e. a transformation without a snap (one
   fold on k₂ < 0 in series with n − 1 folds on k₁ is stable under displacement control when
   (n − 1)|k₂| < k₁ and the rest of the tube adds little compliance);
@@ -50,7 +51,11 @@ class ResponseSummary:
         End slope θ [rad] at ``at_force``.
     softening_start, softening_end : float
         Load-point displacement [mm] of the first and last stable state whose force is below
-        the previous state's (NaN when the force never falls along stable states).
+        the previous state's at a larger displacement (NaN when the force never falls so).
+    largest_force : float
+        The largest force of phase 1 [N] (equal to ``peak_force`` when phase 1 ends).
+    peak_tolerance : float
+        Tolerance [N] of a located peak (NaN: read off the recorded states).
     """
 
     peak_force: float
@@ -63,6 +68,8 @@ class ResponseSummary:
     theta: float
     softening_start: float = float("nan")
     softening_end: float = float("nan")
+    largest_force: float = float("nan")
+    peak_tolerance: float = float("nan")
 
     @property
     def spinodal_span(self) -> float:
@@ -73,9 +80,19 @@ class ResponseSummary:
 
     def lines(self) -> list[str]:
         """Human-readable lines (for the CLI)."""
-        out = [
-            f"phase-1 peak force {self.peak_force:.4f} N at z_p = {self.peak_displacement:.3f} mm"
-        ]
+        if np.isfinite(self.peak_force) and np.isfinite(self.peak_tolerance):
+            out = [
+                f"phase-1 peak force {self.peak_force:.4f} N ± {self.peak_tolerance:.1g} N at "
+                f"z_p = {self.peak_displacement:.3f} mm (located first loss of stability under "
+                "force control)"
+            ]
+        elif np.isfinite(self.peak_force):
+            out = [
+                f"phase-1 peak force {self.peak_force:.4f} N at z_p = "
+                f"{self.peak_displacement:.3f} mm"
+            ]
+        else:
+            out = [f"phase 1 not left (largest force {self.largest_force:.4f} N)"]
         if np.isfinite(self.spinodal_start):
             out.append(
                 f"spinodal regime z_p = {self.spinodal_start:.3f} … {self.spinodal_end:.3f} mm "
@@ -97,11 +114,14 @@ class ResponseSummary:
 
 
 def softening_steps(
-    force: np.ndarray, stable: np.ndarray, switched: np.ndarray | None = None
+    force: np.ndarray,
+    stable: np.ndarray,
+    switched: np.ndarray | None = None,
+    displacement: np.ndarray | None = None,
 ) -> np.ndarray:
     """Steps whose force fell from the previous step's along stable states on one branch
-    (not a snap): bool (n_steps,). A fall counts when it exceeds :data:`FORCE_TOLERANCE`
-    times max |F|."""
+    (not a snap) while the displacement rose (when given): bool (n_steps,). A fall counts
+    when it exceeds :data:`FORCE_TOLERANCE` times max |F|."""
     f = np.asarray(force, dtype=float)
     ok = np.isfinite(f)
     st = np.asarray(stable, dtype=bool)
@@ -109,23 +129,34 @@ def softening_steps(
     tol = FORCE_TOLERANCE * max(1.0, float(np.max(np.abs(f[ok])))) if ok.any() else 0.0
     out = np.zeros(f.size, dtype=bool)
     out[1:] = ok[1:] & ok[:-1] & st[1:] & st[:-1] & ~sw[1:] & (f[1:] < f[:-1] - tol)
+    if displacement is not None:
+        u = np.asarray(displacement, dtype=float)
+        out[1:] &= u[1:] > u[:-1]
     return out
 
 
-def phase_one_end(force: np.ndarray, stable: np.ndarray, switched: np.ndarray | None = None) -> int:
+def phase_one_end(
+    force: np.ndarray,
+    stable: np.ndarray,
+    switched: np.ndarray | None = None,
+    displacement: np.ndarray | None = None,
+) -> int:
     """End (exclusive) of phase 1: the first step that failed (NaN force), is unstable,
     snapped (``switched``) or whose force fell along stable states (:func:`softening_steps`);
     the number of steps if none did."""
     f = np.asarray(force, dtype=float)
     sw = np.zeros(f.size, bool) if switched is None else np.asarray(switched, dtype=bool)
     irregular = ~np.isfinite(f) | ~np.asarray(stable, dtype=bool) | sw
-    irregular |= softening_steps(f, stable, switched)
+    irregular |= softening_steps(f, stable, switched, displacement)
     hits = np.flatnonzero(irregular)
     return int(hits[0]) if hits.size else int(f.size)
 
 
 def summarize(
-    result: Any, force: float = TERMINAL_FORCE, initial_length: float | None = None
+    result: Any,
+    force: float = TERMINAL_FORCE,
+    initial_length: float | None = None,
+    peak: Any = None,
 ) -> ResponseSummary:
     """Summarize a Path, Trajectory or QuasiStaticPath (anything with the arrays ``force``,
     ``displacement``, ``u_z``, ``u_r``, ``theta``, ``stable``).
@@ -142,6 +173,10 @@ def summarize(
         End force [N] at which to report u_z/l₀, u_r/l₀ and θ.
     initial_length : float, optional
         l₀ [mm]; default ``result.model.tube.initial_length``.
+    peak : Snap, optional
+        The located phase-1 peak (:func:`biplan.analysis.loadcontrol.first_snap`): reported
+        instead of the largest recorded force, with its tolerance, when the response leaves
+        phase 1.
     """
     f = np.asarray(result.force, dtype=float)
     zp = np.asarray(result.displacement, dtype=float)
@@ -152,13 +187,15 @@ def summarize(
     nan = float("nan")
     unstable = np.flatnonzero(ok & ~stable)
     switched = getattr(result, "switched", None)
-    softening = softening_steps(f, stable, switched)
-    phase1 = np.flatnonzero(ok[: phase_one_end(f, stable, switched)])
+    softening = softening_steps(f, stable, switched, zp)
+    end = phase_one_end(f, stable, switched, zp)
+    phase1 = np.flatnonzero(ok[:end])
+    peak_f = peak_u = largest = nan
     if phase1.size:
         k = int(phase1[np.argmax(f[phase1])])
-        peak_f, peak_u = float(f[k]), float(zp[k])
-    else:
-        peak_f = peak_u = nan
+        largest = float(f[k])
+        if end < f.size:  # phase 1 ended: its largest force is the peak
+            peak_f, peak_u = largest, float(zp[k])
     soft = np.flatnonzero(softening)
     soft0, soft1 = (float(zp[soft].min()), float(zp[soft].max())) if soft.size else (nan, nan)
     if unstable.size:
@@ -184,4 +221,11 @@ def summarize(
         th = float(result.theta[0])
     else:
         uz = ur = th = nan
-    return ResponseSummary(peak_f, peak_u, s0, s1, float(force), uz, ur, th, soft0, soft1)
+    tol = nan
+    snapped = bool(getattr(result, "snaps", ()))
+    if peak is not None and (np.isfinite(peak_f) or snapped) and np.isfinite(largest):
+        peak_f, peak_u = float(peak.force), float(peak.displacement_before)
+        tol = float(peak.tolerance) if np.isfinite(peak.tolerance) else 0.0
+    return ResponseSummary(
+        peak_f, peak_u, s0, s1, float(force), uz, ur, th, soft0, soft1, largest, tol
+    )

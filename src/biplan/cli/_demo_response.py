@@ -21,6 +21,7 @@ from typing import TYPE_CHECKING
 
 if TYPE_CHECKING:
     from biplan.assembly import Model
+    from biplan.solvers.results import Snap
 
 __all__ = ["run_response"]
 
@@ -29,8 +30,13 @@ ANIMATION_FRAMES = 50
 DAMPING_RATIO = 0.05
 
 
-def run_response(model: Model, out: Path, *, animate: bool = True) -> tuple[list[str], list[Path]]:
-    """Run the ramp and the path, write the files; return (summary lines, files)."""
+def run_response(
+    model: Model, out: Path, *, animate: bool = True, peak: Snap | None = None
+) -> tuple[list[str], list[Path]]:
+    """Run the ramp and the path, write the files; return (summary lines, files).
+
+    ``peak``: the located phase-1 peak (:func:`~biplan.analysis.loadcontrol.first_snap`),
+    reported instead of the largest force recorded on the path."""
     import biplan
     from biplan.analysis.modes import natural_modes, rayleigh_for_damping_ratio
     from biplan.analysis.response import summarize
@@ -58,13 +64,13 @@ def run_response(model: Model, out: Path, *, animate: bool = True) -> tuple[list
 
         stride = max(1, len(ramp.time) // ANIMATION_FRAMES)
         files.append(write_animation(dataset(ramp), model, out / "ramp.gif", fps=12, stride=stride))
-    s_path = summarize(path)
+    s_path = summarize(path, peak=peak)
     s_ramp = summarize(ramp)
     l0 = model.tube.initial_length
     lines = [
         f"ramp 0.8 N/s × 2 s ({ramp.message}); first-mode damping ζ = {DAMPING_RATIO:g} "
         f"(α_R = {alpha:.0f} 1/s)",
-        f"phase-1 peak force {s_path.peak_force:.4f} N at z_p = {s_path.peak_displacement:.3f} mm",
+        s_path.lines()[0],
         (
             f"spinodal regime (unstable equilibria, displacement control): z_p = "
             f"{s_path.spinodal_start:.3f} … {s_path.spinodal_end:.3f} mm "

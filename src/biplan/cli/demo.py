@@ -37,6 +37,7 @@ if TYPE_CHECKING:
     from biplan.assembly import Model
     from biplan.geometry import Tube
     from biplan.solvers import Solution
+    from biplan.solvers.results import Snap
 
 __all__ = ["MAX_DISPLACEMENT", "demo", "phase_one", "snapshots"]
 
@@ -117,15 +118,25 @@ def _table(path: QuasiStaticPath) -> Table:
     return table
 
 
-def _summary(path: QuasiStaticPath, seconds: float) -> str:
+def _summary(path: QuasiStaticPath, seconds: float, peak: Snap | None) -> str:
+    """The summary line: the located phase-1 peak (``peak``,
+    :func:`~biplan.analysis.loadcontrol.first_snap`), snaps, failures and time."""
     first = phase_one(path)
     n_failed = int(np.sum(~np.isfinite(path.force)))
     n_snaps = int(np.sum(path.switched))
     if first.stop == 0:
         head = "No regular phase 1 (the first step snapped, failed or is unstable)"
-    else:
+    elif peak is None:
         k = int(np.argmax(path.force[first]))
-        head = f"Phase 1 peak force {path.force[k]:.4f} N at U = {path.displacement[k]:.3f} mm"
+        head = (
+            f"Phase 1: largest force {path.force[k]:.4f} N at U = {path.displacement[k]:.3f} mm "
+            "(no loss of stability under force control found)"
+        )
+    else:
+        head = (
+            f"Phase 1 peak force {peak.force:.4f} ± {peak.tolerance:.1g} N at z_p = "
+            f"{peak.displacement_before:.3f} mm (located first loss of stability)"
+        )
     tail = f"{n_snaps} snaps, {n_failed} failed of {len(path.force)} steps, {seconds:.1f} s"
     return f"{head} ({tail})"
 
@@ -281,11 +292,15 @@ def demo(
     with progress:
         task = progress.add_task("Sweeping U", total=steps)
         path = _sweep(model, targets, ref, lambda: progress.advance(task))
+    from biplan.analysis.loadcontrol import first_snap
+
+    with console.status("Locating the phase-1 peak…") if interactive else contextlib.nullcontext():
+        peak = first_snap(model)
     seconds = time.perf_counter() - t0
 
     if not quiet:
         console.print(_table(path))
-    console.print(_summary(path, seconds), soft_wrap=True)
+    console.print(_summary(path, seconds, peak), soft_wrap=True)
     try:
         from biplan.io.results import save_sweep_csv
 
@@ -300,7 +315,7 @@ def demo(
         if interactive
         else (contextlib.nullcontext())
     ):
-        lines, more = run_response(model, out, animate=animate)
+        lines, more = run_response(model, out, animate=animate, peak=peak)
     for line in lines:
         console.print(escape(line), soft_wrap=True)
     if not quiet:

@@ -1,9 +1,14 @@
 """``biplan respond CONFIG --control {force,displacement,pressure} [--dynamic] --out DIR``.
 
-Quasi-static (default): follows the equilibrium path with pseudo-arclength continuation
-(``--method arclength``) or load stepping (``--method stepping``) from the relaxed reference to
-``--stop``; ``--control displacement --method stable`` runs the stable-branch sweep of a
-testing machine instead (snaps to stable equilibria, ``--step`` mm per step). Dynamic
+Quasi-static, ``--method stable`` (the default): what a test under that control does. Under
+force or pressure control (:func:`~biplan.analysis.loadcontrol.load_response`) the stable
+branch up to its first loss of stability, the snap there (located; the landing state found by
+a descent at the fixed load), and the stable branch on from there, snap after snap, to
+``--stop`` (``--stop-at-snap`` ends at the first); under displacement control the
+stable-branch sweep of a testing machine (``--step`` mm per step). ``--method arclength`` is a
+numerical method, not a test: the equilibrium path through unstable states by
+pseudo-arclength continuation; it never runs back past its start (status ``RETURNED``).
+``--method stepping`` steps the load and stops at the first limit point. Dynamic
 (``--dynamic``): integrates the equations of motion under the ramp Λ(t) = ``--rate`` · t for
 0 ≤ t ≤ ``--duration`` (default the paper's 0.8 N/s for 2 s), then holds for ``--hold``
 seconds.
@@ -13,17 +18,23 @@ Writes into DIR:
 * ``response.nc`` — the labelled result (xarray/netCDF, with the tube configuration);
 * ``response.csv`` — one row per step (or time, column ``t`` [s]) with at least
   ``force,u_z,u_r,theta,energy,min_eigenvalue,stable``;
-* ``response.png`` — force against load-point displacement, unstable stretches dashed,
-  located limit points marked.
+* ``response.png`` — force (pressure, under pressure control) against load-point
+  displacement, unstable stretches dashed, located limit points marked, snaps drawn as
+  dotted jumps; a dynamic run adds force and displacement against time.
 
-Units: force N, displacement mm, pressure **kPa** on the command line (MPa = N/mm² in the
-library).
+Every run reports the phase-1 peak force as the located first loss of stability under force
+control (:func:`~biplan.analysis.loadcontrol.first_snap`), with its tolerance. A stable run
+that ends short of ``--stop`` writes its files and exits with status 1, saying why.
+
+Units: force N, displacement mm, pressure **kPa** on the command line and in the files and
+figures (MPa = N/mm² in the library).
 
 Every option is checked before the tube is loaded: a value out of range, an output location
 that cannot be written (:mod:`biplan.cli._checks`) and an option the chosen mode would ignore
 (``--rate``, ``--duration``, ``--hold``, ``--time-step``, ``--damping-ratio`` without
 ``--dynamic``; ``--stop``, ``--method``, ``--step``, ``--max-step``, ``--max-steps`` with it;
-``--max-step`` with ``--method stable``) are refused with a one-line error.
+``--max-step`` with ``--control displacement --method stable``; ``--stop-at-snap`` except
+with ``--method stable`` under force or pressure control) are refused with a one-line error.
 """
 
 from __future__ import annotations
@@ -34,6 +45,7 @@ import sys
 from pathlib import Path
 from typing import TYPE_CHECKING, Annotated
 
+import numpy as np
 import typer
 from rich.console import Console
 
@@ -41,10 +53,18 @@ from biplan._errors import ConfigError, check_finite, check_integer, check_range
 from biplan.cli._checks import given, output_directory, refuse_unused
 
 if TYPE_CHECKING:
+    from matplotlib.axes import Axes
+
+    from biplan.analysis.response import ResponseSummary
     from biplan.assembly import Model
     from biplan.solvers import Trajectory
+    from biplan.solvers.results import Path as ResponsePath
+    from biplan.solvers.results import Snap
 
-__all__ = ["Method", "bifurcation_note", "respond"]
+__all__ = ["EXIT_SHORT", "Method", "bifurcation_note", "respond"]
+
+#: Exit status of a stable run that ended short of --stop (its files are written).
+EXIT_SHORT = 1
 
 #: Default stop values per control (quasi-static): F [N], U [mm], p [kPa].
 DEFAULT_STOP = {"force": 2.5, "displacement": 9.0, "pressure": 200.0}
@@ -69,6 +89,7 @@ QUASI_STATIC_OPTIONS = {
     "step": "--step",
     "max_step": "--max-step",
     "max_steps": "--max-steps",
+    "stop_at_snap": "--stop-at-snap",
 }
 
 
@@ -79,9 +100,9 @@ class ControlName(enum.StrEnum):
 
 
 class Method(enum.StrEnum):
+    stable = "stable"
     arclength = "arclength"
     stepping = "stepping"
-    stable = "stable"
 
 
 def respond(
@@ -97,13 +118,24 @@ def respond(
     method: Annotated[
         Method,
         typer.Option(
-            help="Quasi-static path method: arclength (the equilibrium path, unstable stretches "
-            "included), stepping (load steps) or stable (displacement control: the stable-branch "
-            "sweep of a testing machine, snaps included)."
+            help="Quasi-static method: stable (what a test under this control does: stable "
+            "branches, each snap located and landed), arclength (a numerical method: the "
+            "equilibrium path through unstable states) or stepping (load steps, stopping at "
+            "the first limit point)."
         ),
-    ] = Method.arclength,
+    ] = Method.stable,
+    stop_at_snap: Annotated[
+        bool,
+        typer.Option(
+            "--stop-at-snap", help="Force/pressure, --method stable: end at the first snap."
+        ),
+    ] = False,
     step: Annotated[
-        float, typer.Option(help="Initial path step (arclength or Λ units; stable: mm per step).")
+        float,
+        typer.Option(
+            help="Initial path step (arclength units); --control displacement --method stable: "
+            "mm per step."
+        ),
     ] = 0.05,
     max_step: Annotated[
         float,
@@ -128,24 +160,23 @@ def respond(
     """Force-, displacement- or pressure-controlled response of a tube (quasi-static or
     dynamic); writes response.nc, response.csv and response.png."""
     import biplan
-    from biplan.analysis.response import summarize
     from biplan.io.results import dataset, save_csv, save_netcdf
 
     output_directory(out, files=OUTPUT_FILES)
-    if method is Method.stable and (dynamic or control is not ControlName.displacement):
-        raise biplan.ConfigError(
-            "--method", "stable", "used with --control displacement, quasi-static (no --dynamic)"
-        )
     if dynamic:
         _check_dynamic(ctx, rate, duration, hold, time_step, damping_ratio)
     else:
         _check_quasi_static(ctx, method, stop, step, max_step, max_steps, control.value)
+        if stop_at_snap and (method is not Method.stable or control is ControlName.displacement):
+            raise ConfigError(
+                "--stop-at-snap", True, "used with --method stable under force or pressure control"
+            )
     console = Console(quiet=quiet or not sys.stdout.isatty(), highlight=False)
     tube = biplan.load_config(config)
     model = biplan.Model(tube)
     kind = control.value
     scale = 1e-3 if kind == "pressure" else 1.0  # kPa → MPa
-    if method is Method.stable:
+    if method is Method.stable and kind == "displacement" and not dynamic:
         with console.status(f"[bold]{tube.name}[/]: stable-branch sweep…"):
             _stable_sweep(model, DEFAULT_STOP[kind] if stop is None else stop, step, out, quiet)
         return
@@ -155,24 +186,93 @@ def respond(
             result = _dynamic(model, kind, scale, rate, duration, hold, time_step, damping_ratio)
         else:
             value = (DEFAULT_STOP[kind] if stop is None else stop) * scale
-            ctl = biplan.Control(biplan.solvers.ControlKind(kind), value)
-            cls = biplan.ArcLength if method is Method.arclength else biplan.LoadStepping
-            stepper = cls(initial_step=step, max_step=max_step, max_steps=max_steps)
-            result = biplan.trace_path(model, stepper, None, ctl)
+            result = _quasi_static(model, kind, value, method, step, max_step, max_steps,
+                                   stop_at_snap)  # fmt: skip
     out.mkdir(parents=True, exist_ok=True)
     save_netcdf(dataset(result), out / "response.nc")
     save_csv(result, out / "response.csv")
     _figure(result, out / "response.png")
-    summary = summarize(result)
-    level = "green" if result.completed else "yellow"
+    _report(result, _summary(model, result), method, out, quiet)
+    if method is Method.stable and not dynamic and not result.completed and not stop_at_snap:
+        Console(stderr=True, highlight=False).print(
+            f"[red]error:[/] the response ended short of --stop: {result.message}"
+        )
+        raise typer.Exit(EXIT_SHORT)
+
+
+def _quasi_static(
+    model: Model,
+    kind: str,
+    value: float,
+    method: Method,
+    step: float,
+    max_step: float,
+    max_steps: int,
+    stop_at_snap: bool,
+) -> ResponsePath:
+    """The quasi-static response under force or pressure control (or a numerical path)."""
+    import biplan
+    from biplan.analysis.loadcontrol import load_response
+
+    ctl = biplan.Control(biplan.solvers.ControlKind(kind), value)
+    if method is Method.stable:
+        arc = biplan.ArcLength(initial_step=step, max_step=max_step, max_steps=max_steps)
+        return load_response(model, ctl, arc, stop_at_snap=stop_at_snap)
+    cls = biplan.ArcLength if method is Method.arclength else biplan.LoadStepping
+    stepper = cls(initial_step=step, max_step=max_step, max_steps=max_steps)
+    return biplan.trace_path(model, stepper, None, ctl)
+
+
+def _summary(model: Model, result: object) -> ResponseSummary:
+    """The response's summary, its phase-1 peak the located one (:func:`_peak`) when the
+    response leaves phase 1 (a dynamic ramp that never does reports no peak)."""
+    from biplan.analysis.response import summarize
+
+    l0 = model.tube.initial_length
+    plain = summarize(result, initial_length=l0)
+    if not (np.isfinite(plain.peak_force) or getattr(result, "snaps", ())):
+        return plain
+    return summarize(result, initial_length=l0, peak=_peak(model, result))
+
+
+def _peak(model: Model, result: object) -> Snap | None:
+    """The located phase-1 peak: the response's first snap under force control, else
+    :func:`~biplan.analysis.loadcontrol.first_snap` (the same continuation settings)."""
+    from biplan.analysis.loadcontrol import PEAK_METHOD, first_snap
+    from biplan.solvers import ControlKind
+
+    snaps = getattr(result, "snaps", ())
+    control = getattr(result, "control", None)
+    if snaps and control is not None and control.kind is ControlKind.FORCE:
+        return snaps[0]  # type: ignore[no-any-return]
+    return first_snap(model, method=PEAK_METHOD)
+
+
+def _report(
+    result: ResponsePath | Trajectory, summary: ResponseSummary, method: Method, out: Path,
+    quiet: bool,
+) -> None:  # fmt: skip
+    """Print what the run was, how it ended, its snaps and its summary."""
+    from biplan.solvers import ControlKind
+
     report = Console(quiet=quiet, highlight=False)
-    report.print(
-        f"[{level}]{result.message}[/]\n"
-        + "\n".join(summary.lines())
-        + f"\nwrote {out}/response.{{nc,csv,png}}"
-    )
+    level = "green" if result.completed else "yellow"
+    what = ""
+    if getattr(result, "segment", None) is not None:
+        what = "stable response (what a load-controlled test does): "
+    elif getattr(result, "method", "") == "ArcLength":
+        what = (
+            "equilibrium path (pseudo-arclength, a numerical method: unstable states "
+            "included, not what a load-controlled test does): "
+        )
+    report.print(f"[{level}]{what}{result.message}[/]")
+    snaps = getattr(result, "snaps", ())
+    kpa = result.control.kind is ControlKind.PRESSURE
+    for snap in snaps:
+        report.print("  " + snap.describe("kPa" if kpa else "N", 1e3 if kpa else 1.0))
+    report.print("\n".join(summary.lines()) + f"\nwrote {out}/response.{{nc,csv,png}}")
     note = bifurcation_note(result)
-    if note:
+    if note and method is Method.arclength:
         report.print(f"[yellow]note:[/] {note}")
 
 
@@ -180,11 +280,8 @@ def _stable_sweep(model: Model, stop: float, step: float, out: Path, quiet: bool
     """``--method stable``: :func:`~biplan.analysis.quasistatic.displacement_sweep` in
     ⌈stop/step⌉ equal steps (checked against ``--max-steps`` before) from the relaxed
     reference."""
-    import numpy as np
-
     import biplan
     from biplan.analysis.quasistatic import displacement_sweep
-    from biplan.analysis.response import summarize
     from biplan.io.results import save_netcdf, save_sweep_csv, sweep_dataset
 
     n = _stable_steps(stop, step)
@@ -196,13 +293,14 @@ def _stable_sweep(model: Model, stop: float, step: float, out: Path, quiet: bool
     _figure(path, out / "response.png")
     failed = sum(not s.converged for s in path.solutions)
     level = "green" if not failed else "yellow"
-    l0 = model.tube.initial_length
     Console(quiet=quiet, highlight=False).print(
         f"[{level}]stable-branch sweep to U = {stop:g} mm: {n} steps, "
         f"{int(path.switched.sum())} snaps to a stable branch, {failed} failed[/]\n"
-        + "\n".join(summarize(path, initial_length=l0).lines())
+        + "\n".join(_summary(model, path).lines())
         + f"\nwrote {out}/response.{{nc,csv,png}}"
     )
+    if failed == n:
+        raise typer.Exit(EXIT_SHORT)
 
 
 def _stable_steps(stop: float, step: float) -> int:
@@ -226,8 +324,10 @@ def _check_quasi_static(
     if stop is not None and check_finite("--stop", stop) == 0:
         raise ConfigError("--stop", stop, f"a non-zero end value [{UNITS[kind]}]")
     check_integer("--max-steps", max_steps, low=1)
-    if method is Method.stable:
-        refuse_unused(ctx, {"max_step": "--max-step"}, "with --method stable")
+    if method is Method.stable and kind == "displacement":
+        refuse_unused(
+            ctx, {"max_step": "--max-step"}, "with --control displacement --method stable"
+        )
         check_range("--step", step, low=0.0, unit="mm (the displacement per step)")
         top = DEFAULT_STOP[kind] if stop is None else stop
         ratio = abs(top) / step  # inf for a denormal step
@@ -320,19 +420,55 @@ def _dynamic(
 
 
 def _figure(result: object, file: Path) -> None:
+    """response.png: F (p [kPa] under pressure control) against z_p; a trajectory adds F and
+    z_p against time in a second panel."""
+    import types
+
     import matplotlib
 
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
-    from biplan.plot.response import COLUMN_FIGSIZE, force_displacement
+    from biplan.plot.response import COLUMN_FIGSIZE, FONT_SIZE, LINE_COLOR, force_displacement
 
-    fig, ax = plt.subplots(figsize=COLUMN_FIGSIZE, layout="constrained")
+    control = getattr(result, "control", None)
+    pressure = control is not None and control.kind.value == "pressure"
+    shown: object = result
+    if pressure:  # the same curve with the load parameter (kPa) in place of the force
+        shown = types.SimpleNamespace(
+            displacement=result.displacement,  # type: ignore[attr-defined]
+            force=1e3 * np.asarray(result.load_parameter),  # type: ignore[attr-defined]
+            stable=result.stable,  # type: ignore[attr-defined]
+            switched=getattr(result, "switched", None),
+            is_event=getattr(result, "is_event", None),
+        )
+    time = getattr(result, "time", None)
+    width = COLUMN_FIGSIZE[0] * (2.0 if time is not None else 1.0)
+    fig, axes = plt.subplots(
+        1, 2 if time is not None else 1, figsize=(width, COLUMN_FIGSIZE[1]), layout="constrained"
+    )
+    ax = axes[0] if time is not None else axes
     try:
-        force_displacement(result, ax=ax)
+        force_displacement(shown, ax=ax)
         ax.set_xlabel(r"load-point displacement $z_p$ [mm]")
-        if getattr(result, "is_event", None) is not None and result.is_event.any():  # type: ignore[attr-defined]
-            ax.legend(fontsize=7, frameon=False)
+        if pressure:
+            ax.set_ylabel(r"pressure $p$ [kPa]")
+        if time is not None:
+            _time_panel(axes[1], result, FONT_SIZE, LINE_COLOR)  # type: ignore[arg-type]
         fig.savefig(file, dpi=300)
     finally:
         plt.close(fig)
+
+
+def _time_panel(ax: Axes, result: Trajectory, font_size: float, color: str) -> None:
+    """F(t) (left axis) and z_p(t) (right axis, dashed) of a trajectory."""
+    t = np.asarray(result.time)
+    ax.plot(t, result.force, color=color, lw=1.2)
+    ax.set_xlabel(r"time $t$ [s]", fontsize=font_size)
+    ax.set_ylabel(r"$F$ [N]", fontsize=font_size, color=color)
+    right = ax.twinx()
+    right.plot(t, result.displacement, color="#D55E00", lw=1.0, ls="--")
+    right.set_ylabel(r"$z_p$ [mm] (dashed)", fontsize=font_size, color="#D55E00")
+    for a in (ax, right):
+        a.tick_params(labelsize=font_size)
+    ax.set_xlim(float(t[0]), float(t[-1]))

@@ -101,6 +101,7 @@ def save_csv(result: Path | Trajectory, path: str | FilePath) -> FilePath:
         cols = ["t", *cols, *_TRAJECTORY_EXTRA]
     else:
         cols = ["step", *cols, "limit_point"]
+        cols += [c for c in ("segment", "switched") if c in ds]
     data = {c: _column(ds, c) for c in cols}
     units = {c: ds[c].attrs.get("units", "") if c in ds else "" for c in cols}
     units["t"] = "s"

@@ -31,6 +31,9 @@ Array = Any
 
 #: Codes of the loop status (see ``PathStatus``).
 RUNNING, COMPLETED, MAX_STEPS, STALLED = -1, 0, 1, 2
+#: The path would have run back past its start value (the step is not recorded), or it passed
+#: a limit point of Λ and was asked to stop there (the step past it is recorded).
+RETURNED, LIMIT_POINT = 5, 6
 
 
 def load_of(ctl: Array, lam: Array) -> Load:
@@ -145,12 +148,19 @@ def path_loop(
 ) -> PathBuffers:
     """Adaptive predictor–corrector path from (z0, Λ0) toward Λ = ``stop``.
 
-    ``settings = [natural, ds0, ds_min, ds_max, grow, max_steps, atol, max_iterations, w_Λ]``;
-    natural = 1 steps Λ by ds (load stepping), 0 uses pseudo-arclength steps ds.
+    ``settings = [natural, ds0, ds_min, ds_max, grow, max_steps, atol, max_iterations, w_Λ,
+    stop_at_limit]``; natural = 1 steps Λ by ds (load stepping), 0 uses pseudo-arclength steps
+    ds; stop_at_limit = 1 ends the loop (``LIMIT_POINT``) at the first state past a limit point
+    of Λ (the Λ-component of the tangent turned against the direction of ``stop``).
+
+    A corrected state whose Λ lies beyond the start value on the far side from ``stop`` ends
+    the loop with ``RETURNED`` before it is recorded: the path never runs back past its own
+    start.
     """
     natural = settings[0] > 0.5
     ds0, ds_min, ds_max, grow = settings[1], settings[2], settings[3], settings[4]
     max_steps, atol, max_it, w_lam = settings[5], settings[6], settings[7], settings[8]
+    stop_at_limit = settings[9] > 0.5
     n = z0.shape[0]
     weights = _weights(layout, n)
     direction = jnp.sign(stop - lam0)
@@ -216,6 +226,9 @@ def path_loop(
         # a retry must move on along the branch in q, not fall back onto the traversed part
         forward = jnp.sum(weights * secant[:n] * tz) > 0.0
         ok = ok & jnp.all(jnp.isfinite(t_new)) & ((mode == 0) | natural | forward)
+        back = ok & ((c.lam - lam0) * direction < 0.0)
+        turned = ok & ~back & stop_at_limit & (t_new[n] * direction < 0.0)
+        ok = ok & ~back
         i = b.count
         nb = b._replace(
             z=jnp.where(ok, b.z.at[i].set(c.z), b.z),
@@ -224,20 +237,30 @@ def path_loop(
             step=jnp.where(ok, b.step.at[i].set(ds), b.step),
             iterations=jnp.where(ok, b.iterations.at[i].set(c.iterations), b.iterations),
             count=b.count + ok.astype(int),
-            cutbacks=b.cutbacks + (~ok).astype(int),
+            cutbacks=b.cutbacks + (~ok & ~back).astype(int),
         )
         easy = c.iterations <= 3
         hard = c.iterations >= 7
         ds_ok = jnp.where(easy, jnp.minimum(ds * grow, ds_max), jnp.where(hard, 0.7 * ds, ds))
         ds_new = jnp.where(ok, ds_ok, jnp.where(mode == 2, 0.5 * ds, ds))
         status = jnp.where(
-            ok & final,
-            COMPLETED,
+            back,
+            RETURNED,
             jnp.where(
-                ~ok & (ds_new < ds_min),
-                STALLED,
+                turned & ~final,
+                LIMIT_POINT,
                 jnp.where(
-                    (nb.count - 1 >= max_steps) | (nb.count >= buffer_size), MAX_STEPS, RUNNING
+                    ok & final,
+                    COMPLETED,
+                    jnp.where(
+                        ~ok & (ds_new < ds_min),
+                        STALLED,
+                        jnp.where(
+                            (nb.count - 1 >= max_steps) | (nb.count >= buffer_size),
+                            MAX_STEPS,
+                            RUNNING,
+                        ),
+                    ),
                 ),
             ),
         )

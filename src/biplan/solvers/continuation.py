@@ -61,6 +61,7 @@ class _Stepper:
     max_iterations: int = 10
     locate_events: bool = True
     event_tolerance: float = 1e-3
+    stop_at_limit_point: bool = False
 
     def __post_init__(self) -> None:
         name = type(self).__name__
@@ -89,6 +90,7 @@ class _Stepper:
                 self.atol,
                 self.max_iterations,
                 load_weight,
+                1.0 if self.stop_at_limit_point else 0.0,
             ]
         )
 
@@ -113,6 +115,9 @@ class LoadStepping(_Stepper):
         Locate sign changes of λ_min(H_r) between steps.
     event_tolerance : float
         Relative width of the final bracket of a located event.
+    stop_at_limit_point : bool
+        End the path (``PathStatus.LIMIT_POINT``) at the first state past a limit point of Λ,
+        where a load-controlled test would snap (:func:`biplan.analysis.loadcontrol.load_response`).
     """
 
     natural = True
@@ -245,18 +250,32 @@ def trace_path(
             found = _locate(model, ctl, z[i], lam[i], z[i + 1], lam[i + 1], obs, i, method, weight)
             if found is None:
                 continue
-            zi, li = found
+            zi, li, width = found
             kind = "limit point" if tang[i, -1] * tang[i + 1, -1] < 0 else "bifurcation"
             inserted.append((i, zi, li))
             events.append(
-                Event(kind=kind, step=-1, load_parameter=li, force=np.nan, displacement=np.nan)
+                Event(
+                    kind=kind,
+                    step=-1,
+                    load_parameter=li,
+                    force=np.nan,
+                    displacement=np.nan,
+                    tolerance=width,
+                )
             )
     if inserted:
         z, lam, tang, steps, its, flags = _insert(z, lam, tang, steps, its, inserted)
         obs = observe_batch(model.layout, model.params, z, _loads(ctl, lam))
         idx = np.flatnonzero(flags)
         events = [
-            Event(e.kind, int(k), float(lam[k]), float(obs.force[k]), float(obs.displacement[k]))
+            Event(
+                e.kind,
+                int(k),
+                float(lam[k]),
+                float(obs.force[k]),
+                float(obs.displacement[k]),
+                e.tolerance,
+            )
             for e, k in zip(events, idx, strict=True)
         ]
     else:
@@ -308,14 +327,20 @@ def _locate(
     i: int,
     method: _Stepper,
     weight: float,
-) -> tuple[np.ndarray, float] | None:
+) -> tuple[np.ndarray, float, float] | None:
     """Locate the sign change of λ_min between two path states by multisection on the
-    secant hyperplanes between them."""
+    secant hyperplanes between them.
+
+    Returns the end of the final bracket on the start's side of the change (its coordinates
+    and Λ: the last stable state before a loss of stability) and the location's tolerance in
+    Λ: the bracket's width along the secant times the secant's change of Λ (the corrected
+    Λ need not be monotone in the bracket near a kink of a trilinear law, so the Λ of the
+    far end is no bound), or None."""
     nq = model.n_coordinates
     corr = pk.compiled_corrector(model.layout)
     f_a = float(np.asarray(obs.min_eigenvalue)[i])  # type: ignore[attr-defined]
     lo, hi = 0.0, 1.0
-    best: tuple[np.ndarray, float] | None = None
+    best: tuple[np.ndarray, float, float] | None = None
     for _ in range(12):
         alpha = np.linspace(lo, hi, CHUNK + 2)[1:-1]
         dz, dl = zb - za, lb - la
@@ -347,8 +372,14 @@ def _locate(
         k = int(np.argmin(same)) if not same.all() else len(same)
         new_lo = a_ok[k - 1] if k > 0 else lo
         new_hi = a_ok[k] if k < len(same) else hi
-        pick = k if k < len(same) else k - 1
-        best = (zc[pick], float(lc[pick]))
+        width = float((new_hi - new_lo) * abs(lb - la))
+        # the bracket's end on the start's side (a loss of stability keeps a stable state)
+        if k > 0:
+            best = (zc[k - 1], float(lc[k - 1]), width)
+        elif best is None:
+            best = (zc[0], float(lc[0]), width)
+        else:
+            best = (best[0], best[1], width)
         lo, hi = new_lo, new_hi
         if hi - lo < method.event_tolerance:
             break

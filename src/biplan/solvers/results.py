@@ -26,6 +26,7 @@ __all__ = [
     "Path",
     "PathStats",
     "PathStatus",
+    "Snap",
     "Trajectory",
     "TrajectoryStats",
     "TrajectoryStatus",
@@ -67,10 +68,14 @@ class PathStatus(enum.Enum):
     STALLED = 2
     NONFINITE = 3
     FULL_CONTACT = 4
+    RETURNED = 5
+    LIMIT_POINT = 6
+    SNAPPED = 7
+    NO_LANDING = 8
 
     @staticmethod
     def from_code(code: int) -> PathStatus:
-        return PathStatus(code) if code in (0, 1, 2, 3) else PathStatus.STALLED
+        return PathStatus(code) if code in (0, 1, 2, 3, 5, 6) else PathStatus.STALLED
 
     @property
     def message(self) -> str:
@@ -88,6 +93,13 @@ class PathStatus(enum.Enum):
                 "more than the contact compliance allows (the tube is closed solid; "
                 'docs/model.md, "Degenerate contacts")'
             ),
+            5: (
+                "stopped where the path would have run back past its start value (the load "
+                "would have returned through the start, or changed sign)"
+            ),
+            6: "stopped past the first limit point of the load, as asked",
+            7: "stopped at the first snap, as asked",
+            8: "no stable state found at the snap load (descent at fixed load failed)",
         }[self.value]
 
 
@@ -116,6 +128,57 @@ class Event:
     load_parameter: float
     force: float  # [N]
     displacement: float  # [mm]
+    tolerance: float = float("nan")  # width of the final bracket in Λ
+
+
+@dataclass(frozen=True)
+class Snap:
+    """A jump of a load-controlled response (:func:`biplan.analysis.loadcontrol.load_response`).
+
+    At a located loss of stability the tube leaves its branch at the fixed load for a stable
+    state on another branch; the response goes on from there.
+
+    Attributes
+    ----------
+    step : int
+        Index of the last state before the jump (the located loss of stability); the landing
+        state is ``step + 1``.
+    load_parameter : float
+        Λ at the jump: F [N], U [mm] or p [MPa].
+    force : float
+        End force at the jump [N].
+    displacement_before, displacement_after : float
+        Load-point displacement z_p [mm] before and after the jump.
+    critical : str
+        What was lost: ``"limit point"``, ``"bifurcation"`` or ``"loss of stability"`` (not
+        located: the last stable state before the first unstable one).
+    folds : tuple of str
+        The folds whose dominant phase changed in the jump (:func:`fold_names`).
+    landing : str
+        How the landing state was found (``"descent at fixed load"``).
+    tolerance : float
+        Width in Λ of the bracket that located the loss of stability (NaN when not located).
+    """
+
+    step: int
+    load_parameter: float
+    force: float
+    displacement_before: float
+    displacement_after: float
+    critical: str
+    folds: tuple[str, ...]
+    landing: str
+    tolerance: float = float("nan")
+
+    def describe(self, unit: str = "N", scale: float = 1.0) -> str:
+        """One line: where the tube snapped, which folds went and where it landed."""
+        tol = "" if not np.isfinite(self.tolerance) else f" ± {self.tolerance * scale:.1g}"
+        folds = ", ".join(self.folds) if self.folds else "no fold changed phase"
+        return (
+            f"snap at {self.load_parameter * scale:.4f}{tol} {unit} ({self.critical}): "
+            f"z_p {self.displacement_before:.3f} → {self.displacement_after:.3f} mm; "
+            f"{folds} ({self.landing})"
+        )
 
 
 @dataclass(frozen=True)
@@ -174,6 +237,14 @@ def observables(model: Model, obs: Observation, control_value: np.ndarray) -> di
     }
 
 
+def _shown(control: Control) -> tuple[float, str]:
+    """Scale and unit of the load parameter in files and figures: pressure in kPa (the
+    library's MPa × 1000), force and displacement as they are."""
+    if control.kind.value == "pressure":
+        return 1e3, "kPa"
+    return 1.0, control.kind.unit
+
+
 def _version() -> str:
     from importlib.metadata import PackageNotFoundError, version
 
@@ -202,6 +273,7 @@ class _Labelled:
         import xarray as xr
 
         dim = self._dim
+        scale, shown_unit = _shown(self.control)
         data: dict[str, Any] = {}
         for name, v in self._variables().items():
             v = np.asarray(v)
@@ -215,7 +287,9 @@ class _Labelled:
                 dims = (dim,)
             if v.dtype == bool:
                 v = v.astype(np.int8)
-            unit = UNITS.get(name, self.control.kind.unit if name == "load_parameter" else "1")
+            unit = UNITS.get(name, "1")
+            if name == "load_parameter":
+                v, unit = v * scale, shown_unit
             data[name] = (dims, v, {"units": unit})
         n = len(next(iter(self._variables().values())))
         coords: dict[str, Any] = {
@@ -228,8 +302,8 @@ class _Labelled:
         attrs: dict[str, Any] = {
             "kind": "path" if dim == "step" else "trajectory",
             "control": self.control.kind.value,
-            "control_unit": self.control.kind.unit,
-            "control_stop": self.control.stop,
+            "control_unit": shown_unit,
+            "control_stop": self.control.stop * scale,
             "initial_length": self.model.tube.initial_length,
             "biplan_version": _version(),
             **self._attrs(),
@@ -262,6 +336,11 @@ class Path(_Labelled):
         Coordinates (step, n_q) and packed unknowns (step, n_z).
     status : PathStatus
     stats : PathStats
+    segment : ndarray of int, optional
+        Stable branch of each state of a load-controlled response (0 before the first snap,
+        1 after it, …); None for a plain path.
+    snaps : tuple of Snap
+        The jumps between those branches.
     """
 
     model: Model = field(repr=False)
@@ -288,6 +367,16 @@ class Path(_Labelled):
     z: np.ndarray = field(repr=False)
     status: PathStatus = PathStatus.COMPLETED
     stats: PathStats | None = None
+    segment: np.ndarray | None = field(default=None, repr=False)
+    snaps: tuple[Snap, ...] = ()
+
+    @property
+    def switched(self) -> np.ndarray:
+        """True at the landing state of each snap (the first state of a new branch)."""
+        out = np.zeros(self.n_steps, dtype=bool)
+        if self.segment is not None and self.n_steps > 1:
+            out[1:] = np.diff(self.segment) != 0
+        return out
 
     @classmethod
     def build(
@@ -305,7 +394,7 @@ class Path(_Labelled):
         stats: PathStats,
         direction: np.ndarray,
     ) -> Path:
-        common = observables(model, observation, load_parameter)
+        common: dict[str, Any] = observables(model, observation, load_parameter)
         return cls(
             model=model,
             control=control,
@@ -358,11 +447,15 @@ class Path(_Labelled):
         ]
         out = {n: getattr(self, n) for n in names}
         out["limit_point"] = self.is_event
+        if self.segment is not None:
+            out["segment"] = np.asarray(self.segment, dtype=np.int64)
+            out["switched"] = self.switched
         return out
 
     def _attrs(self) -> dict[str, Any]:
         s = self.stats
-        return {
+        scale, unit = _shown(self.control)
+        attrs = {
             "method": self.method,
             "status": self.status.name,
             "message": self.message,
@@ -372,6 +465,11 @@ class Path(_Labelled):
                 for e in self.events
             ),
         }
+        if self.segment is not None:
+            attrs["snaps"] = "; ".join(
+                f"step {p.step}: " + p.describe(unit, scale) for p in self.snaps
+            )
+        return attrs
 
 
 @dataclass(frozen=True)
