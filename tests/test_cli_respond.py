@@ -30,7 +30,9 @@ def test_respond_quasi_static_displacement(tmp_path: Path) -> None:
     for name in ("response.nc", "response.csv", "response.png"):
         assert (out / name).is_file()
     assert set(_header(out / "response.csv")) >= REQUIRED
-    assert "phase-1 peak force" in result.output
+    # to 1 mm the tube never leaves phase 1: its largest force is no peak
+    assert "phase 1 not left (largest force" in result.output
+    assert "phase-1 peak force" not in result.output
 
 
 def test_respond_dynamic_pressure(tmp_path: Path) -> None:
@@ -42,6 +44,10 @@ def test_respond_dynamic_pressure(tmp_path: Path) -> None:
     assert result.exit_code == 0, result.output
     header = _header(out / "response.csv")
     assert header[0] == "t" and set(header) >= REQUIRED
+    from PIL import Image
+
+    with Image.open(out / "response.png") as png:  # F–z_p beside F(t), z_p(t)
+        assert png.width > 1.8 * png.height
 
 
 def test_respond_rejects_a_missing_config(tmp_path: Path) -> None:
@@ -90,11 +96,14 @@ def test_respond_stable_branch_sweep(tmp_path: Path) -> None:
     snap = int(np.argmax(ds["switched"].values))
     assert ds["switched"].values.any() and 1.25 <= ds["displacement"].values[snap] <= 2.0
     assert force[snap] < 0.5 * force[snap - 1]  # the fold snapped open: the force dropped
-    # the summary's phase-1 peak is the last state before the first snap
-    peak = re.search(r"phase-1 peak force ([\d.]+) N at z_p = ([\d.]+) mm", result.output)
+    # the summary's phase-1 peak is the located first loss of stability under force control:
+    # at least the largest force recorded before the first snap, the same as `respond
+    # --control force` reports (test_respond_force_default_is_the_load_controlled_test)
+    peak = re.search(r"phase-1 peak force ([\d.]+) ± (\S+) N at z_p = ([\d.]+) mm",
+                     result.output)  # fmt: skip
     assert peak is not None
-    assert float(peak[1]) == pytest.approx(force[snap - 1], abs=1e-4)
-    assert float(peak[2]) == pytest.approx(ds["displacement"].values[snap - 1], abs=1e-3)
+    assert force[snap - 1] - 1e-4 <= float(peak[1]) <= force[snap - 1] * 1.01
+    assert ds["displacement"].values[snap - 1] <= float(peak[3]) <= ds["displacement"].values[snap]
     # biplan plot draws it (snaps dotted)
     drawn = runner.invoke(app, ["plot", str(out / "response.nc"), "--kind", "response",
                                 "--out", str(out / "again.png")])  # fmt: skip
@@ -122,9 +131,37 @@ def test_respond_stable_branch_sweep(tmp_path: Path) -> None:
     with Image.open(out / "a.gif") as gif:
         assert gif.n_frames == 3  # steps 0, 4, 8
     # refused before solving when it cannot apply
-    bad = runner.invoke(app, ["respond", str(CONFIG), "--method", "stable", "--out", str(out)])
-    assert isinstance(bad.exception, biplan.ConfigError) and "--control displacement" in str(
-        bad.exception
-    )
+    bad = runner.invoke(app, [*args, "--stop-at-snap", "--out", str(out)])
+    assert isinstance(bad.exception, biplan.ConfigError) and "--stop-at-snap" in str(bad.exception)
     bad = runner.invoke(app, [*args, "--step", "0", "--out", str(out)])
     assert isinstance(bad.exception, biplan.ConfigError) and "--step" in str(bad.exception)
+
+
+def test_respond_force_default_is_the_load_controlled_test(tmp_path: Path) -> None:
+    """``respond --control force`` (default method stable) up to the first snap: stable
+    states only, the snap reported with its tolerance, the same peak as the displacement
+    sweep's summary; a run that ends short of --stop exits 1 with the reason."""
+    import xarray as xr
+
+    out = tmp_path / "force"
+    args = ["respond", str(CONFIG), "--control", "force", "--stop-at-snap", "--out", str(out)]
+    result = runner.invoke(app, args)
+    assert result.exit_code == 0, result.output
+    assert "stable response (what a load-controlled test does)" in result.output
+    assert "stopped at the first snap" in result.output
+    snap = re.search(r"snap at ([\d.]+) ± \S+ N", result.output)
+    peak = re.search(r"phase-1 peak force ([\d.]+) ±", result.output)
+    assert snap is not None and peak is not None and snap[1] == peak[1]
+    assert 2.0 < float(peak[1]) < 2.2
+    assert {"segment", "switched"} <= set(_header(out / "response.csv"))
+    with xr.open_dataset(out / "response.nc", engine="h5netcdf") as ds:
+        assert (ds["stable"].values == 1).all() and "snap at" in ds.attrs["snaps"]
+        assert float(ds["force"].max()) == pytest.approx(float(peak[1]), abs=1e-4)
+    sweep = runner.invoke(app, ["respond", str(CONFIG), "--control", "displacement", "--stop",
+                                "2", "--step", "0.25", "--out", str(tmp_path / "d")])  # fmt: skip
+    assert sweep.exit_code == 0, sweep.output
+    assert f"phase-1 peak force {peak[1]} ±" in sweep.output
+    short = runner.invoke(app, [*args[:-3], "--max-steps", "3", "--out", str(tmp_path / "s")])
+    assert short.exit_code == 1
+    assert "ended short of --stop" in short.output and "maximum number of steps" in short.output
+    assert (tmp_path / "s" / "response.nc").is_file()

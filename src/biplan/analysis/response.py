@@ -82,7 +82,7 @@ class ResponseSummary:
         """Human-readable lines (for the CLI)."""
         if np.isfinite(self.peak_force) and np.isfinite(self.peak_tolerance):
             out = [
-                f"phase-1 peak force {self.peak_force:.4f} N ± {self.peak_tolerance:.1g} N at "
+                f"phase-1 peak force {self.peak_force:.4f} ± {self.peak_tolerance:.1g} N at "
                 f"z_p = {self.peak_displacement:.3f} mm (located first loss of stability under "
                 "force control)"
             ]

@@ -195,7 +195,8 @@ def respond(
     _report(result, _summary(model, result), method, out, quiet)
     if method is Method.stable and not dynamic and not result.completed and not stop_at_snap:
         Console(stderr=True, highlight=False).print(
-            f"[red]error:[/] the response ended short of --stop: {result.message}"
+            f"[red]error:[/] the response ended short of --stop: {result.message}",
+            soft_wrap=True,
         )
         raise typer.Exit(EXIT_SHORT)
 
@@ -435,12 +436,12 @@ def _figure(result: object, file: Path) -> None:
     pressure = control is not None and control.kind.value == "pressure"
     shown: object = result
     if pressure:  # the same curve with the load parameter (kPa) in place of the force
+        flags = {n: getattr(result, n) for n in ("switched", "is_event") if hasattr(result, n)}
         shown = types.SimpleNamespace(
             displacement=result.displacement,  # type: ignore[attr-defined]
             force=1e3 * np.asarray(result.load_parameter),  # type: ignore[attr-defined]
             stable=result.stable,  # type: ignore[attr-defined]
-            switched=getattr(result, "switched", None),
-            is_event=getattr(result, "is_event", None),
+            **flags,
         )
     time = getattr(result, "time", None)
     width = COLUMN_FIGSIZE[0] * (2.0 if time is not None else 1.0)
