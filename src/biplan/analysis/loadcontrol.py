@@ -60,6 +60,12 @@ PEAK_SEARCH_FORCE = 100.0
 #: Continuation settings of the located phase-1 peak: those of ``biplan respond`` (its
 #: ``--step`` 0.05 and ``--max-step`` 0.1), so that every command reports the same number.
 PEAK_METHOD = ArcLength(initial_step=0.05, max_step=0.1)
+#: A turn of the load on stable states is re-traced with TURN_REFINEMENT times shorter steps,
+#: at most TURN_ROUNDS times, until the neighbours of the turn are within TURN_TOLERANCE
+#: (relative) of it.
+TURN_REFINEMENT = 16
+TURN_ROUNDS = 3
+TURN_TOLERANCE = 1e-5
 #: Length [mm, rad] of the initial displacement of a descent along a mode.
 KICK = 0.1
 #: |cos| between the most unstable mode and the path's last secant above which only the
@@ -138,11 +144,17 @@ def load_response(
         # (the located event, or the last stable state, before it) — a load that turns back
         # on stable states (a kink or a contact) ends it too: past the turn, no equilibrium
         # nearby carries more load.
-        last = stretch.n_steps if end is None else end
-        sense = np.sign(control.stop - _start_value(stretch))
-        k = int(np.argmax(stretch.load_parameter[:last] * sense))
-        if k < last - 1:
-            end = None  # the load turned before stability was lost
+        sense = float(np.sign(control.stop - _start_value(stretch)))
+        k, end = _stable_end(stretch, end, sense)
+        for _ in range(TURN_ROUNDS):
+            if (
+                end is not None
+                or k == 0
+                or _critical(stretch, k, end)[1] <= _turn_tolerance(stretch, k)
+            ):
+                break
+            stretch = _refine_turn(model, method, control, stretch, k)
+            k, end = _stable_end(stretch, _first_unstable(stretch), sense)
         head = _head(stretch, k + 1)
         pieces.append(head)
         offset = sum(p.n_steps for p in pieces) - 1
@@ -182,6 +194,43 @@ def first_snap(
 def _start_value(path: Path) -> float:
     """Λ of the first state of a path."""
     return float(path.load_parameter[0])
+
+
+def _stable_end(path: Path, end: int | None, sense: float) -> tuple[int, int | None]:
+    """(k, end): the largest load before the first unstable state ``end``; ``end`` becomes
+    None when the load turned back on stable states before it."""
+    last = path.n_steps if end is None else end
+    k = int(np.argmax(path.load_parameter[:last] * sense))
+    return k, (end if k == last - 1 else None)
+
+
+def _turn_tolerance(path: Path, k: int) -> float:
+    """The tolerance a turn of the load is located to: :data:`TURN_TOLERANCE` relative."""
+    return TURN_TOLERANCE * max(abs(float(path.load_parameter[k])), 1.0)
+
+
+def _refine_turn(model: Model, method: ArcLength, control: Control, path: Path, k: int) -> Path:
+    """``path`` with the steps around a turn of the load at state ``k`` traced again from
+    state k − 1 with :data:`TURN_REFINEMENT` times shorter steps."""
+    j = min(k + 1, path.n_steps - 1)
+    span = float(
+        np.hypot(np.linalg.norm(path.q[j] - path.q[k - 1]),
+                 path.load_parameter[j] - path.load_parameter[k - 1])
+    )  # fmt: skip
+    ds = max(span / TURN_REFINEMENT, 10 * method.min_step)
+    fine = replace(method, initial_step=ds, max_step=ds, min_step=min(method.min_step, ds / 10))
+    start = solve_equilibrium(
+        model,
+        Newton(atol=method.atol),
+        path.z[k - 1],
+        control.load(model, float(path.load_parameter[k - 1])),
+    )
+    if not start.converged:
+        return path
+    again = trace_path(
+        model, fine, start, replace(control, start=float(path.load_parameter[k - 1]))
+    )
+    return _concat([_head(path, k - 1), again])
 
 
 def _first_unstable(path: Path) -> int | None:
@@ -274,8 +323,8 @@ def _directions(
     return [float(np.sign(cos)) * v] if abs(cos) > ALIGNED else [v, -v]
 
 
-def _join(pieces: list[Path], snaps: tuple[Snap, ...], status: PathStatus) -> Path:
-    """One Path of the stretches in order, with ``segment``, ``snaps`` and ``status``."""
+def _concat(pieces: list[Path]) -> Path:
+    """The states of the paths in order, as one path (events renumbered, stats summed)."""
     first = pieces[0]
     arrays: dict[str, Any] = {
         name: np.concatenate([getattr(p, name) for p in pieces], axis=0) for name in _PER_STEP
@@ -294,17 +343,13 @@ def _join(pieces: list[Path], snaps: tuple[Snap, ...], status: PathStatus) -> Pa
         smallest_step=min((s.smallest_step for s in stats), default=float("nan")),
         largest_step=max((s.largest_step for s in stats), default=float("nan")),
     )
+    return replace(first, events=events, stats=total, status=pieces[-1].status, **arrays)
+
+
+def _join(pieces: list[Path], snaps: tuple[Snap, ...], status: PathStatus) -> Path:
+    """One Path of the stretches in order, with ``segment``, ``snaps`` and ``status``."""
     segment = np.concatenate([np.full(p.n_steps, i) for i, p in enumerate(pieces)])
-    return replace(
-        first,
-        method="stable",
-        events=events,
-        status=status,
-        stats=total,
-        segment=segment,
-        snaps=snaps,
-        **arrays,
-    )
+    return replace(_concat(pieces), method="stable", status=status, segment=segment, snaps=snaps)
 
 
 def _with_folds(path: Path, snap: Snap) -> Snap:
