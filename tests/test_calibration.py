@@ -27,8 +27,10 @@ import biplan
 from biplan.analysis.calibration import (
     Breakpoints,
     CalibrationOptions,
+    CaveatKind,
     calibrate_linear,
     calibrate_trilinear,
+    force_drop,
 )
 from biplan.analysis.fits import CftGeometry, cft_force, fit_linear, fit_trilinear
 from biplan.analysis.specimens import Segment, Specimen, band_statistics, segment_problem
@@ -215,6 +217,59 @@ def test_linear_calibration_recovers_the_law() -> None:
     assert offset.covers(0.0) and abs(offset.value) < 0.01  # N/mm
     with pytest.raises(biplan.ConfigError, match="two phases"):
         calibrate_trilinear(specs)
+
+
+# --- caveats: statistics that mean little --------------------------------------------------
+EXAMPLES = Path(__file__).resolve().parents[1] / "examples" / "data"
+
+
+@pytest.mark.parametrize(
+    ("folder", "kind", "expected"),
+    [
+        ("cft_linear", "linear", set()),
+        ("cft_trilinear", "trilinear", set()),
+        ("cft_trilinear", "linear", {CaveatKind.BISTABLE_DATA, CaveatKind.POOR_FIT}),
+        ("mft_semi_bistable", "trilinear", set()),
+        ("mft_semi_bistable", "linear", {CaveatKind.BISTABLE_DATA, CaveatKind.POOR_FIT}),
+    ],
+)
+def test_a_linear_law_on_bistable_example_data_carries_caveats(
+    folder: str, kind: str, expected: set[CaveatKind]
+) -> None:
+    """The shipped data: a linear law on the trilinear CFT (k = 0.07 N/mm², RMS 1.05 N) or on
+    the MFT is flagged; each dataset fitted with its own law is not."""
+    specs = read_specimens(EXAMPLES / folder, radius=2.0)
+    run = calibrate_linear if kind == "linear" else calibrate_trilinear
+    result = run(specs, options=CalibrationOptions(n_bootstrap=0))
+    assert {c.kind for c in result.caveats} == expected
+    if expected:
+        bistable = next(c for c in result.caveats if c.kind is CaveatKind.BISTABLE_DATA)
+        assert "bistable" in bistable.message and "trilinear" in bistable.message
+        assert "% of its range" in bistable.message
+        assert "# warning: the data are bistable" in calibration_toml(result, "helical")
+    else:
+        assert "warning" not in calibration_toml(result, "circular")
+
+
+def test_bootstrap_from_few_specimens_carries_a_caveat() -> None:
+    specs = read_specimens(EXAMPLES / "cft_linear", radius=2.0)
+    one = calibrate_linear(specs[:1], options=CalibrationOptions(n_bootstrap=10))
+    assert [c.kind for c in one.caveats] == [CaveatKind.FEW_SPECIMENS]
+    assert "single specimen" in one.caveats[0].message
+    k = one.estimate("k")
+    assert k.low == k.high == pytest.approx(k.value)  # the zero-width interval it warns of
+    three = calibrate_linear(specs[:3], options=CalibrationOptions(n_bootstrap=10))
+    assert "3 specimens (10 distinct resamples" in three.caveats[0].message
+    assert not calibrate_linear(specs[:5], options=CalibrationOptions(n_bootstrap=10)).caveats
+    assert not calibrate_linear(specs[:1], options=CalibrationOptions(n_bootstrap=0)).caveats
+
+
+def test_force_drop_is_the_largest_fall_along_displacement() -> None:
+    u = np.array([0.0, 1.0, 2.0, 3.0, 4.0, 5.0])
+    assert force_drop(u, np.array([0.0, 2.0, 1.0, 1.5, -0.5, 3.0])) == pytest.approx(2.5)
+    assert force_drop(u[::-1], np.array([3.0, -0.5, 1.5, 1.0, 2.0, 0.0])) == pytest.approx(2.5)
+    assert force_drop(u, u**2) == 0.0
+    assert force_drop(u, np.array([0.0, np.nan, 1.0, 0.9, 2.0, 2.0])) == pytest.approx(0.1)
 
 
 def _simulated_cft_force(law, geo: CftGeometry, u: float, start: float) -> float:

@@ -91,6 +91,33 @@ def test_calibrate_options_override_the_config(tmp_path: Path) -> None:
     assert ks[1] == pytest.approx(2 * ks[0], rel=1e-4) and ks[2] == pytest.approx(ks[0])
 
 
+def test_calibration_caveats_reach_the_terminal_and_the_law_block(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    """A linear law on bistable data, and intervals from one specimen, are warned of on
+    stderr (with --quiet too) and in the written block."""
+    out = tmp_path / "law.toml"
+    args = ["calibrate", "linear", str(DATA / "cft_trilinear"), "-o", str(out), "-q"]
+    with pytest.raises(SystemExit) as info:
+        main([*args, "--bootstrap", "0"])
+    assert info.value.code == 0
+    err = capsys.readouterr().err
+    assert "warning: the data are bistable: the median force falls by 1.65 N (78%" in err
+    assert "RMS residual 1.05 N is 49% of the force range" in err
+    assert "Traceback" not in err
+    assert out.read_text().startswith("# warning: the data are bistable")
+    single = tmp_path / "one"
+    single.mkdir()
+    (single / "s.csv").write_bytes((DATA / "cft_linear" / "specimen_01.csv").read_bytes())
+    args = ["calibrate", "linear", str(single), "-o", str(out), "-q", "--bootstrap", "5"]
+    with pytest.raises(SystemExit) as info:
+        main(args)
+    assert info.value.code == 0
+    err = capsys.readouterr().err
+    assert err.count("warning:") == 1 and "from a single specimen" in err
+    assert "# warning: the bootstrap intervals come from a single specimen" in out.read_text()
+
+
 def test_bad_data_is_a_red_message_naming_file_and_row(
     tmp_path: Path, capsys: pytest.CaptureFixture[str]
 ) -> None:

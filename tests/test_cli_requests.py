@@ -180,6 +180,35 @@ def test_value_out_of_range_is_refused(
 
 
 @pytest.mark.parametrize(
+    ("args", "option"),
+    [
+        (["plot", CONFIG, "--kind", "response", "--out", "a.png", "--stride", "0"], "--stride"),
+        (["plot", CONFIG, "--kind", "response", "--out", "a.png", "--dpi", "5"], "--dpi"),
+        (["calibrate", "linear", DATA / "cft_linear", "--bootstrap", "-1"], "--bootstrap"),
+        (["calibrate", "linear", DATA / "cft_linear", "--n-folds", "0"], "--n-folds"),
+        (["respond", CONFIG, "--max-steps", "x"], "--max-steps"),
+    ],
+)
+def test_typer_range_errors_name_the_option_without_traceback(
+    no_solve: None,
+    tmp_path: Path,
+    capsys: pytest.CaptureFixture[str],
+    monkeypatch: pytest.MonkeyPatch,
+    args: list[str],
+    option: str,
+) -> None:
+    """Options with simple bounds are checked by Typer: a usage error (status 2) that names
+    the option, never a traceback."""
+    monkeypatch.chdir(tmp_path)
+    with pytest.raises(SystemExit) as info:
+        main([str(a) for a in args])
+    captured = capsys.readouterr()
+    assert info.value.code == 2
+    assert f"Invalid value for '{option}'" in captured.err
+    assert "Traceback" not in captured.out + captured.err
+
+
+@pytest.mark.parametrize(
     ("args", "needles"),
     [
         (["respond", CONFIG, "--damping-ratio", "0.1"], ("--damping-ratio", "0.1", "--dynamic")),
@@ -278,6 +307,112 @@ def test_config_error_names_the_toml_key(
     _refused(capsys, [*args, "--out", tmp_path / "law.toml"], "geometry.n_folds = 0", "≥ 1")
 
 
+# --- 4. sizes out of proportion -------------------------------------------------------------
+def _tube_file(folder: Path, n_modules: int) -> Path:
+    text = CONFIG.read_text()
+    assert "n_modules = 6" in text
+    file = folder / f"tube{n_modules}.toml"
+    file.write_text(text.replace("n_modules = 6", f"n_modules = {n_modules}"))
+    return file
+
+
+@pytest.mark.parametrize("command", ["respond", "states", "map design"])
+def test_tube_beyond_the_largest_is_refused_before_any_work(
+    no_solve: None, tmp_path: Path, capsys: pytest.CaptureFixture[str], command: str
+) -> None:
+    big = _tube_file(tmp_path, 10_000)
+    args = {
+        "respond": ["respond", big, "--out", tmp_path / "o"],
+        "states": ["states", big, "--out", tmp_path / "o"],
+        "map design": ["map", "design", big, "--b", "0.5", "--C", "1", "--out", tmp_path / "o"],
+    }[command]
+    _refused(capsys, args, "geometry.n_modules = 10000", "an integer in [1, 400]")
+
+
+def test_large_tube_warns_with_its_cost_before_the_work(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    """Loading a 200-module tube warns (CostWarning, with the estimate); the CLI prints it as
+    one line before anything else happens (here a refused --max-points)."""
+    from biplan.analysis.cost import tube_cost
+
+    large = _tube_file(tmp_path, 200)
+    with pytest.warns(biplan.CostWarning, match=r"geometry.n_modules = 200 is a large tube"):
+        tube = biplan.load_config(large)
+    assert tube.n_modules == 200
+    cost = tube_cost(200)
+    assert 150 < cost.cold_start < 319 and 8.46 < cost.step < 54  # between 192 and 384
+    args = ["map", "design", large, "--b", "0.5", "--C", "1", "--max-points", "0"]
+    with pytest.raises(SystemExit) as info:
+        main([str(a) for a in [*args, "--out", tmp_path / "m"]])
+    assert info.value.code == EXIT_BIPLAN_ERROR
+    err = capsys.readouterr().err
+    lines = [line for line in err.splitlines() if line.strip()]
+    assert len(lines) == 2 and "Traceback" not in err
+    assert lines[0].startswith("warning: ") and "to compile and" in lines[0]
+    assert "per solved state" in lines[0]
+    assert "invalid --max-points = 0" in lines[1]
+    import warnings
+
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        biplan.load_config(_tube_file(tmp_path, 48))  # the largest example: no warning
+
+
+def test_grid_beyond_max_points_is_refused_with_its_cost(
+    no_solve: None, tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    args = ["map", "design", CONFIG, "--b", "0.4:0.6:1000", "--C", "0.5:3:1000", "--threads",
+            "2", "--out", tmp_path / "m"]  # fmt: skip
+    line = _refused(capsys, args, "--max-points = 100000", "1000000 points",
+                    "1000 --b × 1000 --C", "on 2 core(s)")  # fmt: skip
+    assert " h" in line or "days" in line
+    args = ["map", "stability", CONFIG, "--displacement", "0.01:0.4:400", "--C", "0.5:3:300",
+            "--max-points", "100000", "--out", tmp_path / "s"]  # fmt: skip
+    _refused(capsys, args, "--max-points = 100000", "120000 points", "300 --C × 400")
+    assert not (tmp_path / "m").exists() and not (tmp_path / "s").exists()
+
+
+def test_long_grid_is_warned_of_with_its_cost(capsys: pytest.CaptureFixture[str]) -> None:
+    from biplan.analysis.design_map import ResponseEvaluator
+    from biplan.analysis.sweeps import Grid
+    from biplan.cli.maps import WARN_SECONDS, check_size
+
+    tube, ev = biplan.load_config(CONFIG), ResponseEvaluator()
+    grid = Grid.of(b="0.4:0.6:300", C="0.5:3:300")  # 90,000 points
+    seconds = check_size(grid, tube, ev, 100_000, 2, ("--b", "--C"))
+    assert seconds is not None and seconds > WARN_SECONDS
+    err = capsys.readouterr().err
+    assert err.startswith("warning: 90000 points (300 --b × 300 --C values): about ")
+    assert len(err.strip().splitlines()) == 1
+    small = Grid.of(b="0.4:0.6:10", C="0.5:3:10")
+    assert check_size(small, tube, ev, 100_000, 2, ("--b", "--C")) < WARN_SECONDS
+    assert capsys.readouterr().err == ""
+
+
+def test_cost_estimates_follow_the_measurements() -> None:
+    from biplan.analysis.cost import (
+        MAP_POINT_RATE,
+        MEASURED_TUBES,
+        duration,
+        map_seconds,
+        tube_cost,
+    )
+
+    for n, cold, step in MEASURED_TUBES:
+        assert tube_cost(n).cold_start == pytest.approx(cold)
+        assert tube_cost(n).step == pytest.approx(step)
+    assert tube_cost(1000).step > tube_cost(384).step > tube_cost(192).step
+    rate = MAP_POINT_RATE["force_ramp_response"]  # points/s per core, six modules
+    assert map_seconds("force_ramp_response", 60, 6, 2) == pytest.approx(30 / rate)
+    assert map_seconds("force_ramp_response", 60, 48, 2) == pytest.approx(
+        30 / rate * tube_cost(48).step / tube_cost(6).step
+    )
+    assert map_seconds("unknown", 60, 6, 2) is None
+    assert [duration(s) for s in (0.31, 40, 720, 20_000, 400_000)] == [
+        "0.31 s", "40 s", "12 min", "5.6 h", "4.6 days"]  # fmt: skip
+
+
 # --- 7. state labels of ``biplan path`` -------------------------------------------------------
 @pytest.mark.parametrize(
     ("start", "target", "bad"),
@@ -289,6 +424,180 @@ def test_path_labels_are_checked_before_enumerating(
     no_solve: None, capsys: pytest.CaptureFixture[str], start: str, target: str, bad: str
 ) -> None:
     _refused(capsys, ["path", FULLY, start, target], bad, "2 hexadecimal digits from 00 to 7F")
+
+
+def test_path_label_with_the_wrong_number_of_bits_is_refused(
+    no_solve: None, capsys: pytest.CaptureFixture[str]
+) -> None:
+    """The semi-bistable tube has six bistable folds (two digits, 00 to 3F): '2A' is one of
+    its states, '7F' (seven bits) and '1' (one digit) are not."""
+    _refused(capsys, ["path", CONFIG, "2a", "7F"], "TARGET = '7F'", "00 to 3F", "6 bistable")
+    _refused(capsys, ["path", CONFIG, "1", "2A"], "START = '1'", "2 hexadecimal digits")
+
+
+def _catalogue(
+    folder: Path,
+    names: tuple[str, ...] = ("2A", "2B", "0A"),
+    config: Path = FULLY,
+    edit: tuple[str, str] | None = None,
+) -> Path:
+    """A states.nc of the tube of ``config`` (``edit`` replaces a string of its text) written
+    as ``biplan states`` writes it, with made-up states ``names`` (no solve)."""
+    from biplan.analysis.catalogue import StateCatalogue
+    from biplan.analysis.labels import bistable_folds, label_to_bits
+    from biplan.analysis.states import Enumeration, SeedOutcome, StableState
+    from biplan.io.config import dump_config, load_config_text
+
+    text = config.read_text()
+    tube = load_config_text(text if edit is None else text.replace(*edit))
+    model = biplan.Model(tube)
+    folds = bistable_folds(tube)
+    n_q, n_folds = model.n_coordinates, len(tube.folds())
+    states = tuple(
+        StableState(name=n, label=n, bits=label_to_bits(n, len(folds)), q=np.full(n_q, 0.1 * k),
+                    z=np.full(n_q + 3, 0.1 * k), energy=0.5 * k, u_z=0.2 * k, u_r=0.01 * k,
+                    theta=0.03 * k, min_eigenvalue=1.0 + k, phase_fraction=np.zeros((n_folds, 3)),
+                    seeds=(n,))
+        for k, n in enumerate(names)
+    )  # fmt: skip
+    seeds = tuple(
+        SeedOutcome(seed=s.name, seed_bits=s.bits, reached_bits=s.bits, outcome="stable",
+                    state=s.name, min_eigenvalue=s.min_eigenvalue, residual=0.0, message="")
+        for s in states
+    )  # fmt: skip
+    catalogue = StateCatalogue(model, folds, states, seeds, np.zeros((0, n_q + 3)), np.zeros(0),
+                               Enumeration(), 1.5)  # fmt: skip
+    ds = catalogue.to_dataset()
+    ds.attrs["config"] = dump_config(tube)
+    folder.mkdir(parents=True, exist_ok=True)
+    ds.to_netcdf(folder / "states.nc", engine="h5netcdf")
+    return folder / "states.nc"
+
+
+@pytest.fixture(scope="module")
+def catalogues(tmp_path_factory: pytest.TempPathFactory) -> dict[str, Path]:
+    """Catalogue files of the fully bistable tube: its own, and one of other circular laws
+    (written before ``no_solve`` forbids building a model)."""
+    folder = tmp_path_factory.mktemp("catalogues")
+    edit = ("stiffness = [0.9, -0.37, 0.6]", "stiffness = [0.9, -0.3, 0.6]")
+    assert edit[0] in FULLY.read_text()
+    return {
+        "fully": _catalogue(folder / "fully"),
+        "other laws": _catalogue(folder / "other", edit=edit),
+    }
+
+
+def test_catalogue_file_gives_the_catalogue_back(tmp_path: Path) -> None:
+    from biplan.io.catalogue import load_catalogue, read_catalogue
+
+    tube = biplan.load_config(FULLY)
+    ds = read_catalogue(_catalogue(tmp_path), tube)
+    catalogue = load_catalogue(ds, biplan.Model(tube))
+    assert catalogue.names == ("2A", "2B", "0A")
+    assert catalogue.state("2B").bits == (0, 1, 0, 1, 0, 1, 1)
+    np.testing.assert_allclose(catalogue.state("0A").z, 0.2)
+    assert catalogue.rows()[1]["Theta"] == pytest.approx(0.5)
+    assert [s.state for s in catalogue.seeds] == ["2A", "2B", "0A"]
+    assert list(ds["fold"].values) == list(biplan.Model(tube).layout.fold_names)
+    assert ds.attrs["bit_folds"].split(", ")[:2] == ["helical 4", "circular 3|4"]
+
+
+def test_path_reads_the_catalogue_and_names_folds_as_the_files_do(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str], monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """``--states`` replaces the enumeration; each step names its fold as the result files do
+    (modules from 1): 2B → 2A switches bit 6 (H₁, "helical 1"), 2A → 0A bit 1 (C₃|₄)."""
+    import biplan.analysis.states
+    import biplan.analysis.transitions
+
+    file = _catalogue(tmp_path)
+    monkeypatch.setattr(biplan.analysis.states, "enumerate_states", _forbidden)
+
+    def barriers(graph, model, catalogue, edges=None, neb=None, departure=False):  # type: ignore[no-untyped-def]
+        for u, v in edges:
+            graph.edges[u, v].update(forward_from=u, saddle_energy=9.0, mep_status="CONVERGED")
+        return graph
+
+    monkeypatch.setattr(biplan.analysis.transitions, "annotate_barriers", barriers)
+    main_exit = None
+    try:
+        main([str(a) for a in ["path", FULLY, "2b", "0a", "--states", file, "-q"]])
+    except SystemExit as info:
+        main_exit = info.code
+    out = capsys.readouterr().out
+    assert main_exit in (None, 0), out
+    assert "2B → 2A → 0A" in out
+    assert "2B → 2A: fold helical 1, barrier 8.5 N·mm" in out
+    assert "2A → 0A: fold circular 3|4, barrier 9 N·mm" in out
+    names = biplan.Model(biplan.load_config(FULLY)).layout.fold_names
+    assert {"helical 1", "circular 3|4"} <= set(names)  # the names of response.nc's fold axis
+
+
+@pytest.mark.parametrize(
+    ("case", "needles"),
+    [
+        ("missing", ("--states", "an existing file")),
+        ("garbage", ("--states", "cannot read it")),
+        ("path result", ("--states", "it is a path result")),
+        ("other tube", ("--states", "6 modules and 6 bistable folds",
+                        "4 modules and 7 bistable folds")),
+        ("other laws", ("--states", "fold laws differ")),
+        ("state not held", ("TARGET = '66'", "a stable state of", "2A, 2B, 0A")),
+    ],
+)  # fmt: skip
+def test_path_catalogue_is_checked_before_any_work(
+    catalogues: dict[str, Path], no_solve: None, tmp_path: Path,
+    capsys: pytest.CaptureFixture[str], case: str, needles: tuple[str, ...],
+) -> None:  # fmt: skip
+    config, start, target = FULLY, "2A", "0A"
+    if case == "missing":
+        file = tmp_path / "none.nc"
+    elif case == "garbage":
+        file = tmp_path / "states.nc"
+        file.write_bytes(b"not a netCDF file")
+    elif case == "path result":
+        import xarray as xr
+
+        file = tmp_path / "path.nc"
+        xr.Dataset({"force": ("step", [0.0])}, attrs={"kind": "path"}).to_netcdf(file)
+    else:
+        file = catalogues["other laws" if case == "other laws" else "fully"]
+        if case == "other tube":
+            config, start, target = CONFIG, "2A", "0A"
+        if case == "state not held":
+            target = "66"
+    _refused(capsys, ["path", config, start, target, "--states", file], *needles)
+
+
+@pytest.mark.parametrize(
+    ("file", "kind", "needles"),
+    [
+        ("states", "response", ("--kind = 'response'", "one of development, tube, gallery",
+                                "a state catalogue")),
+        ("states", "phases", ("--kind = 'phases'", "one of development, tube, gallery")),
+        ("map", "response", ("--kind = 'response'", "a map (stability_count)",
+                             "`biplan map plot` draws a map")),
+        ("map", "gallery", ("--kind = 'gallery'", "nothing `biplan plot` draws")),
+    ],
+)  # fmt: skip
+def test_plot_kind_that_does_not_apply_names_the_kinds_that_do(
+    catalogues: dict[str, Path], tmp_path: Path, capsys: pytest.CaptureFixture[str],
+    monkeypatch: pytest.MonkeyPatch, file: str, kind: str, needles: tuple[str, ...],
+) -> None:  # fmt: skip
+    import xarray as xr
+
+    import biplan.cli.plot
+
+    monkeypatch.setattr(biplan.cli.plot, "_figure", _forbidden)  # nothing is drawn
+    monkeypatch.setattr(biplan.cli.plot, "_model", _forbidden)
+    path = catalogues["fully"]
+    if file == "map":
+        path = tmp_path / "map.nc"
+        regime = (("C", "displacement"), np.ones((2, 2)))
+        xr.Dataset({"regime": regime}, attrs={"quantity": "stability_count"}).to_netcdf(path)
+    line = _refused(capsys, ["plot", path, "--kind", kind, "--out", tmp_path / "f.png"], *needles)
+    assert str(path) in line
+    assert not (tmp_path / "f.png").exists()
 
 
 def test_state_names_are_read_in_any_case() -> None:

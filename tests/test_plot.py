@@ -78,6 +78,54 @@ def test_force_displacement_styles_and_normalisation() -> None:
         force_displacement(fake, normalise=0.0)
 
 
+def _data_points_in_display(ax: Axes) -> np.ndarray:
+    """Every vertex of every line of ``ax`` (display coordinates, finite only)."""
+    xy = np.concatenate([ln.get_xydata() for ln in ax.lines if len(ln.get_xydata())])
+    xy = xy[np.isfinite(xy).all(axis=1)]
+    return ax.transData.transform(xy)
+
+
+@pytest.mark.parametrize("corner", ["upper left", "upper right", "everywhere"])
+def test_force_displacement_legend_names_the_styles_off_the_data(corner) -> None:
+    """Stable (solid), unstable (dashed), the snap and the limit point are in the legend, and
+    the legend covers no data point wherever the curve runs."""
+    u = np.linspace(0.0, 1.0, 41)
+    f = {"upper left": 1.0 - u, "upper right": u, "everywhere": np.sin(12 * u)}[corner]
+    stable = np.ones(u.size, bool)
+    stable[15:25] = False
+    switched = np.zeros(u.size, bool)
+    switched[30] = True
+    events = np.zeros(u.size, bool)
+    events[15] = True
+    fake = SimpleNamespace(displacement=u, force=f, stable=stable, switched=switched,
+                           is_event=events)  # fmt: skip
+    ax = force_displacement(fake)
+    ax.figure.canvas.draw()
+    legend = ax.get_legend()
+    texts = [t.get_text() for t in legend.get_texts()]
+    assert texts == ["stable", "unstable", "branch switch", "limit point / bifurcation"]
+    styles = [h.get_linestyle() for h in legend.legend_handles[:2]]
+    assert styles == ["-", "--"]
+    box = legend.get_window_extent()
+    points = _data_points_in_display(ax)
+    inside = (
+        (points[:, 0] >= box.x0) & (points[:, 0] <= box.x1)
+        & (points[:, 1] >= box.y0) & (points[:, 1] <= box.y1)
+    )  # fmt: skip
+    assert not inside.any()
+    assert box.y0 >= ax.get_window_extent().y1 - 1.0  # above the axes
+    assert ax.figure.get_window_extent().contains(box.x1 - 1, box.y1 - 1)  # inside the figure
+
+
+def test_force_displacement_legend_follows_label_and_can_be_left_out() -> None:
+    fake = SimpleNamespace(displacement=np.arange(4.0), force=np.arange(4.0),
+                           stable=np.ones(4, bool))  # fmt: skip
+    ax = force_displacement(fake, label="path")
+    assert [t.get_text() for t in ax.get_legend().get_texts()] == ["path, stable"]
+    _, ax = plt.subplots()
+    assert force_displacement(fake, ax=ax, legend=False).get_legend() is None
+
+
 # --- development ---------------------------------------------------------------------------------
 @pytest.mark.parametrize("state", ["reference", "solved"])
 def test_development_draws_every_fold_field(model, solved_q, state) -> None:
@@ -177,43 +225,71 @@ def test_cylinder_draws_wrapped_elements(model, solved_q) -> None:
     ax.figure.canvas.draw()  # renders headless
 
 
-def test_stability_map_cells_and_band_outline() -> None:
-    """The regions are drawn on cell edges that do not cross zero (C and U/l₀ are
-    non-negative), and the band outline is the boundary of the union of the hatched band
-    cells: a 2 × 2 block in a 3 × 5 grid has a perimeter of 8 cell sides."""
+def _stability_ds(regime: np.ndarray, band: np.ndarray | None = None):
     import xarray as xr
-
-    from biplan.plot.maps import _band_outline, stability_map
-    from biplan.plot.response import cell_edges
-
-    def _edges(x):  # the map's axes: C and U/l0 do not extend below zero
-        return cell_edges(x, clip_at_zero=True)
 
     u = np.array([0.01, 0.06, 0.11, 0.16, 0.21])
     c = np.array([0.5, 1.75, 3.0])
-    regime = np.array([[1, 2, 3, 2, 2], [1, 2, 3, 2, 2], [1, 1, 2, 2, 2]], dtype=float)
-    band = np.zeros_like(regime, dtype=bool)
-    band[:2, 1:3] = True
-    ds = xr.Dataset(
+    band = np.zeros_like(regime, dtype=bool) if band is None else band
+    return xr.Dataset(
         {"regime": (("C", "displacement"), regime), "transition": (("C", "displacement"), band)},
         coords={"C": c, "displacement": u},
     )
+
+
+def test_stability_map_cells_and_band_outline() -> None:
+    """The axes end at the grid (the outer points' cells are half cells), and the band outline
+    is the boundary of the union of the hatched band cells: a 2 × 2 block in a 3 × 5 grid has
+    a perimeter of 8 cell sides."""
+    from biplan.plot.maps import _band_outline, grid_edges, stability_map
+    from biplan.plot.response import cell_edges
+
+    regime = np.array([[1, 2, 3, 2, 2], [1, 2, 3, 2, 2], [1, 1, 2, 2, 2]], dtype=float)
+    band = np.zeros_like(regime, dtype=bool)
+    band[:2, 1:3] = True
+    ds = _stability_ds(regime, band)
+    u, c = ds["displacement"].values, ds["C"].values
     ax = stability_map(ds)
-    assert ax.get_xlim() == pytest.approx((0.0, 0.235))
-    assert ax.get_ylim() == pytest.approx((0.0, 3.625))
-    np.testing.assert_allclose(_edges(c), [0.0, 1.125, 2.375, 3.625])
-    np.testing.assert_allclose(_edges(np.array([-1.0, 1.0])), [-2.0, 0.0, 2.0])
-    np.testing.assert_allclose(cell_edges(c), [-0.125, 1.125, 2.375, 3.625])  # unclipped
-    segments = _band_outline(band, _edges(u), _edges(c))
+    assert ax.get_xlim() == pytest.approx((0.01, 0.21))  # the grid's first and last U/l0
+    assert ax.get_ylim() == pytest.approx((0.5, 3.0))  # and C
+    np.testing.assert_allclose(grid_edges(c), [0.5, 1.125, 2.375, 3.0])
+    np.testing.assert_allclose(grid_edges(np.array([0.2])), [0.0, 0.7])  # one value: a cell
+    np.testing.assert_allclose(cell_edges(c), [-0.125, 1.125, 2.375, 3.625])
+    np.testing.assert_allclose(cell_edges(np.array([-1.0, 1.0]), True), [-2.0, 0.0, 2.0])
+    segments = _band_outline(band, grid_edges(u), grid_edges(c))
     assert len(segments) == 8
-    # every segment lies on the boundary of the block [0.035, 0.135] × [0, 2.375]
+    # every segment lies on the boundary of the block [0.035, 0.135] × [0.5, 2.375]
     for (x0, y0), (x1, y1) in segments:
         vertical = x0 == x1 and min(abs(x0 - 0.035), abs(x0 - 0.135)) < 1e-12
-        horizontal = y0 == y1 and min(abs(y0 - 0.0), abs(y0 - 2.375)) < 1e-12
+        horizontal = y0 == y1 and min(abs(y0 - 0.5), abs(y0 - 2.375)) < 1e-12
         assert vertical != horizontal
     lines = [coll for coll in ax.collections if isinstance(coll, LineCollection)]
     assert len(lines) == 1 and len(lines[0].get_segments()) == 8
+    # the regions fill the frame exactly: the mesh spans the grid
+    mesh = ax.collections[0]
+    corners = mesh.get_coordinates().reshape(-1, 2)
+    assert corners[:, 0].min() == pytest.approx(0.01) and corners[:, 0].max() == pytest.approx(0.21)
     plt.close(ax.figure)
+
+
+@pytest.mark.parametrize(
+    ("regime", "labels"),
+    [
+        (np.full((3, 5), 2.0), ["bistable"]),
+        (np.array([[1, 1, 2, 2, 2]] * 3, dtype=float), ["monostable", "bistable"]),
+        (np.array([[0, 3, 3, np.nan, 1]] * 3, dtype=float),
+         ["monostable", "multistable", "none found", "failed"]),
+    ],
+)  # fmt: skip
+def test_stability_map_legend_names_only_the_regimes_present(regime, labels) -> None:
+    from biplan.plot.maps import stability_map
+
+    ax = stability_map(_stability_ds(regime))
+    assert [t.get_text() for t in ax.get_legend().get_texts()] == labels  # no transition band
+    band = np.zeros_like(regime, dtype=bool)
+    band[0, 0] = True
+    ax = stability_map(_stability_ds(regime, band))
+    assert [t.get_text() for t in ax.get_legend().get_texts()] == [*labels, "transition"]
 
 
 def test_design_map_stars_the_swept_design() -> None:

@@ -1,10 +1,11 @@
 """Figures of the state analysis on hand-made catalogues (no solving): the transition diagram
-grows with its tallest column so that labels stay apart, and the endpoint space names the
-states only while the names can be read."""
+grows with its tallest column so that labels stay apart, and the endpoint space names only the
+states whose names do not overlap, says how many, and shows Θ over its range."""
 
 from __future__ import annotations
 
 import itertools
+from io import BytesIO
 
 import matplotlib
 
@@ -15,7 +16,7 @@ import numpy as np
 import pytest
 import xarray as xr
 
-from biplan.plot.states import MAX_ANNOTATED, ROW_HEIGHT, endpoint_space, transition_diagram
+from biplan.plot.states import ROW_HEIGHT, endpoint_space, transition_diagram
 
 
 @pytest.fixture(autouse=True)
@@ -52,18 +53,48 @@ def test_transition_diagram_is_tall_enough_for_its_tallest_column(n_bits, talles
     assert gap >= labels[0].get_window_extent().height
 
 
-@pytest.mark.parametrize("n", [10, MAX_ANNOTATED + 1])
-def test_endpoint_space_names_states_only_while_readable(n) -> None:
-    rng = np.random.default_rng(3)
-    ds = xr.Dataset(
+def _catalogue(n: int, seed: int = 3, theta_sign: float = 1.0) -> xr.Dataset:
+    rng = np.random.default_rng(seed)
+    theta = theta_sign * rng.uniform(0, 0.2, n)
+    theta[0] = 0.218
+    return xr.Dataset(
         {
             "u_z": ("state", rng.uniform(0, 5, n)),
             "u_r": ("state", rng.uniform(-1, 1, n)),
-            "Theta": ("state", rng.uniform(0, 1, n)),
+            "theta": ("state", theta),
+            "Theta": ("state", theta / 0.218),
+            "energy": ("state", rng.uniform(0, 3, n)),
             "n_open_helical": ("state", rng.integers(0, 4, n)),
         },
         coords={"state": [f"{k:03X}" for k in range(n)]},
         attrs={"initial_length": 14.4},
     )
-    ax = endpoint_space(ds)
-    assert len(ax.texts) == (n if n <= MAX_ANNOTATED else 0)
+
+
+@pytest.mark.parametrize("n", [6, 66, 242])
+def test_endpoint_space_names_a_readable_subset_and_says_so(n) -> None:
+    ax = endpoint_space(_catalogue(n))
+    fig = ax.figure
+    fig.savefig(BytesIO(), format="png", dpi=100)  # the layout of the written file
+    renderer = fig.canvas.get_renderer()
+    shown = [t for t in ax.texts if t.get_visible()]
+    boxes = [t.get_window_extent(renderer) for t in shown]
+    for a, b in itertools.combinations(boxes, 2):
+        assert not a.overlaps(b)
+    legend = ax.get_legend().get_window_extent(renderer)
+    assert not any(box.overlaps(legend) for box in boxes)
+    assert f"names: {len(shown)} of {n} states" in ax.get_title()
+    assert len(ax.texts) == n and 1 <= len(shown) <= n
+    if n == 242:
+        assert len(shown) < n  # a dense catalogue: only a subset can be read
+    if n == 6:
+        assert len(shown) == n
+
+
+@pytest.mark.parametrize(("sign", "zlim"), [(1.0, (0.0, 1.0)), (-1.0, (-1.0, 1.0))])
+def test_endpoint_space_shows_theta_over_its_range(sign, zlim) -> None:
+    ax = endpoint_space(_catalogue(12, theta_sign=sign), annotate=False)
+    assert ax.get_zlim() == pytest.approx(zlim)
+    assert "Θ = 1 at |θ| = 0.218 rad" in ax.get_title()
+    assert f"Θ ∈ [{zlim[0]:g}, 1]" in ax.get_title()
+    assert "max" in ax.get_zlabel() and not ax.texts

@@ -9,6 +9,7 @@ import numpy as np
 import pytest
 
 import biplan
+from biplan.analysis.catalogue import StateCatalogue
 from biplan.analysis.hierarchy import hierarchy
 from biplan.analysis.labels import (
     bistable_folds,
@@ -148,6 +149,12 @@ def test_graph_edges_are_exactly_hamming_one(catalogue4, tmp_path):
         back.edges
     )
     assert back.number_of_edges() == g.number_of_edges()
+    # each edge names its fold as the result files do (modules from 1, "circular 1|2")
+    names = catalogue4.model.layout.fold_names
+    for _, _, data in g.edges(data=True):
+        fold = catalogue4.folds[data["fold"]]
+        assert data["fold_name"] == catalogue4.model.layout.fold_name(fold) in names
+        assert data["fold_name"].split()[0] == fold.set
 
 
 def test_pathway_is_a_shortest_chain_of_single_fold_switches(catalogue4):
@@ -194,6 +201,19 @@ def test_dataset_round_trip(catalogue4, tmp_path):
     back = xr.load_dataset(tmp_path / "s.nc", engine="h5netcdf")
     np.testing.assert_array_equal(back["q"].values, ds["q"].values)
     assert list(back["label"].values) == [s.label for s in catalogue4.states]
+    assert list(back["fold"].values) == list(catalogue4.model.layout.fold_names)
+    # the catalogue comes back from the file (what `biplan path --states` reads)
+    again = StateCatalogue.from_dataset(back, catalogue4.model)
+    assert again.names == catalogue4.names and again.folds == catalogue4.folds
+    for a, b in zip(again.states, catalogue4.states, strict=True):
+        assert a.bits == b.bits and a.seeds == b.seeds and a.energy == b.energy
+        np.testing.assert_array_equal(a.z, b.z)
+    assert again.rows() == catalogue4.rows()
+    assert [(s.seed, s.state, s.reached_bits) for s in again.seeds] == [
+        (s.seed, s.state, s.reached_bits) for s in catalogue4.seeds
+    ]
+    edges = sorted(transition_graph(again).edges(data="fold_name"))
+    assert edges == sorted(transition_graph(catalogue4).edges(data="fold_name"))
 
 
 # --- R3 EDGE_FIT reading (the fully bistable design's default) ----------------------------

@@ -357,7 +357,7 @@ def test_cli_plot_errors(result_files, tmp_path, capsys) -> None:
     with pytest.raises(SystemExit) as err:
         main(["plot", states, "--kind", "response", "--out", str(tmp_path / "r.png")])
     assert err.value.code == EXIT_BIPLAN_ERROR
-    assert "path or trajectory" in capsys.readouterr().err
+    assert "one of development, tube, gallery for a state catalogue" in capsys.readouterr().err
     with pytest.raises(SystemExit) as err:
         main(["plot", states, "--kind", "animation", "--out", str(tmp_path / "a.png")])
     assert err.value.code == EXIT_BIPLAN_ERROR

@@ -22,6 +22,7 @@ if TYPE_CHECKING:
     from biplan._errors import BiplanError as BiplanError
     from biplan._errors import ConfigError as ConfigError
     from biplan._errors import ConvergenceError as ConvergenceError
+    from biplan._errors import CostWarning as CostWarning
     from biplan.analysis.stability import Stability as Stability
     from biplan.analysis.stability import Verdict as Verdict
     from biplan.analysis.stability import classify as classify
@@ -60,6 +61,7 @@ _EXPORTS = {
     "BiplanError": "biplan._errors",
     "ConfigError": "biplan._errors",
     "ConvergenceError": "biplan._errors",
+    "CostWarning": "biplan._errors",
     "Stability": "biplan.analysis.stability",
     "Verdict": "biplan.analysis.stability",
     "classify": "biplan.analysis.stability",
@@ -119,6 +121,7 @@ __all__ = [
     "ConfigError",
     "Control",
     "ConvergenceError",
+    "CostWarning",
     "Development",
     "FoldRef",
     "GeneralizedAlpha",

@@ -2,7 +2,10 @@
 
 Every invalid parameter raises :class:`ConfigError` (a :class:`ValueError`) that names the
 parameter, its value and the valid range, before any solve starts. A solve that does not
-converge returns a status; with ``throw=True`` it raises :class:`ConvergenceError` instead.
+converge returns a status; with ``throw=True`` it raises :class:`ConvergenceError` instead. A
+valid request that will cost much more than usual (a tube of hundreds of modules) issues a
+:class:`CostWarning` (a :class:`UserWarning`) saying what it will cost, before the work; the
+command line prints it as one yellow line.
 """
 
 from __future__ import annotations
@@ -13,8 +16,10 @@ from typing import Any
 
 __all__ = [
     "BiplanError",
+    "BiplanWarning",
     "ConfigError",
     "ConvergenceError",
+    "CostWarning",
     "check_finite",
     "check_integer",
     "check_range",
@@ -47,6 +52,14 @@ class ConfigError(BiplanError, ValueError):
 
 class ConvergenceError(BiplanError, RuntimeError):
     """A solver did not converge (raised only with ``throw=True``)."""
+
+
+class BiplanWarning(UserWarning):
+    """Base class of every biplan warning."""
+
+
+class CostWarning(BiplanWarning):
+    """A valid request whose cost is out of proportion (the message gives the estimate)."""
 
 
 def check_finite(name: str, value: float) -> float:

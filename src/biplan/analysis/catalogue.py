@@ -1,7 +1,8 @@
 """The result of a state enumeration: :class:`StateCatalogue` and its labelled forms.
 
 ``to_dataset()`` gives an ``xarray.Dataset`` (dims ``state``, ``coordinate``, ``fold``,
-``seed``; ``attrs["kind"] = "states"``) that :mod:`biplan.plot.gallery` and the CLI read;
+``seed``; ``attrs["kind"] = "states"``) that :mod:`biplan.plot.gallery` and the CLI read, and
+``from_dataset(ds, model)`` the catalogue back (what ``biplan path --states`` reads);
 ``rows()`` gives one dict per state with the CSV columns
 ``name,label,bits,energy,u_z,u_r,theta,Theta,min_eigenvalue,n_open_helical,n_open_circular,seeds``.
 """
@@ -149,7 +150,7 @@ class StateCatalogue:
             np.asarray([s.q for s in self.states]).reshape(-1, n_q),
         )
         data["z"] = (("state", "packed"), np.asarray([s.z for s in self.states]).reshape(-1, n_z))
-        data["phase_fraction"] = (
+        data["phase_fraction"] = (  # every fold, named as in the result files
             ("state", "fold", "phase"),
             np.asarray([s.phase_fraction for s in self.states]).reshape(len(rows), -1, 3),
         )
@@ -168,6 +169,7 @@ class StateCatalogue:
             coords={
                 "state": names,
                 "seed": [s.seed for s in self.seeds],
+                "fold": list(self.model.layout.fold_names),
                 "phase": ["closed", "spinodal", "open"],
             },
         )
@@ -183,6 +185,7 @@ class StateCatalogue:
         ds.attrs.update(
             kind="states",
             folds=json.dumps([[f.set, f.index] for f in self.folds]),
+            bit_folds=", ".join(self.model.layout.fold_name(f) for f in self.folds),
             initial_length=self.model.tube.initial_length,
             n_seeds=len(self.seeds),
             n_stable=len(self.states),
@@ -192,3 +195,66 @@ class StateCatalogue:
             elapsed_s=self.elapsed,
         )
         return ds
+
+    @classmethod
+    def from_dataset(cls, ds: Any, model: Model) -> StateCatalogue:
+        """The catalogue of a dataset written by :meth:`to_dataset` (a ``states.nc`` file),
+        for the model of its tube.
+
+        The states (coordinates, energies, endpoints, eigenvalues, phase fractions, seeds) and
+        every seed's outcome come back; what the file does not hold stays empty: the rejected
+        unstable equilibria, and each seed's residual (NaN) and failure message. The caller
+        checks that ``model`` is the catalogue's tube (:mod:`biplan.io.catalogue`).
+        """
+        from biplan.analysis.labels import label_to_bits
+
+        folds = tuple(FoldRef(str(s), int(i)) for s, i in json.loads(ds.attrs["folds"]))
+        n_bits = len(folds)
+
+        def bits(text: Any) -> tuple[int, ...]:
+            return tuple(int(c) for c in str(text))
+
+        def column(name: str) -> np.ndarray:
+            return np.asarray(ds[name].values)
+
+        states = tuple(
+            StableState(
+                name=str(name),
+                label=str(column("label")[k]),
+                bits=bits(column("bits")[k]),
+                q=np.asarray(column("q")[k], dtype=float),
+                z=np.asarray(column("z")[k], dtype=float),
+                energy=float(column("energy")[k]),
+                u_z=float(column("u_z")[k]),
+                u_r=float(column("u_r")[k]),
+                theta=float(column("theta")[k]),
+                min_eigenvalue=float(column("min_eigenvalue")[k]),
+                phase_fraction=np.asarray(column("phase_fraction")[k], dtype=float),
+                seeds=tuple(str(column("seeds")[k]).split()),
+            )
+            for k, name in enumerate(column("state"))
+        )
+        seeds = tuple(
+            SeedOutcome(
+                seed=str(seed),
+                seed_bits=label_to_bits(str(seed), n_bits),
+                reached_bits=bits(column("seed_reached")[k]),
+                outcome=str(column("seed_outcome")[k]),
+                state=str(column("seed_state")[k]) or None,
+                min_eigenvalue=float(column("seed_min_eigenvalue")[k]),
+                residual=float("nan"),
+                message="",
+            )
+            for k, seed in enumerate(column("seed"))
+        )
+        n_z = states[0].z.size if states else model.layout.n_coordinates
+        return cls(
+            model=model,
+            folds=folds,
+            states=states,
+            seeds=seeds,
+            unstable_z=np.zeros((0, n_z)),
+            unstable_eigenvalues=np.zeros(0),
+            settings=Enumeration(),
+            elapsed=float(ds.attrs.get("elapsed_s", 0.0)),
+        )

@@ -16,6 +16,7 @@ from dataclasses import dataclass, replace
 import numpy as np
 
 from biplan._errors import ConfigError, check_finite
+from biplan.analysis.cost import MAX_MODULES
 from biplan.geometry import Tube
 from biplan.geometry.development import Development
 from biplan.geometry.tube import initial_stiffness
@@ -208,8 +209,8 @@ def apply_values(tube: Tube, values: Mapping[str, float]) -> Tube:
             geo[name] = float(values[name])
     if "n_modules" in values:
         v = values["n_modules"]
-        if float(v) != round(float(v)) or v < 1:
-            raise ConfigError("n_modules", v, "an integer ≥ 1")
+        if float(v) != round(float(v)) or not 1 <= v <= MAX_MODULES:
+            raise ConfigError("n_modules", v, f"an integer in [1, {MAX_MODULES}]")
         n = round(float(v))
     if "b" in values:
         geo["helical_angle"] = Development.helical_angle_for_b(

@@ -36,7 +36,9 @@ def transition_graph(catalogue: StateCatalogue) -> nx.Graph:
 
     Node keys are the state names; node attributes: label, bits (string), energy [N·mm], u_z,
     u_r [mm], theta [rad], Theta, n_open_helical, n_open_circular. Edge attribute ``fold``: the
-    bit (0 = free end) in which the two states differ, and ``fold_set``/``fold_index`` of it.
+    bit (0 = free end) in which the two states differ, ``fold_set``/``fold_index`` of it (the
+    index from 0 at the base, :class:`~biplan.geometry.FoldRef`) and ``fold_name``, its name in
+    the result files and figures (``"helical 2"``, ``"circular 1|2"``: modules from 1).
     """
     g = nx.Graph()
     for row, state in zip(catalogue.rows(), catalogue.states, strict=True):
@@ -48,7 +50,11 @@ def transition_graph(catalogue: StateCatalogue) -> nx.Graph:
             if hamming(a.bits, b.bits) == 1:
                 bit = next(k for k, (x, y) in enumerate(zip(a.bits, b.bits, strict=True)) if x != y)
                 fold = catalogue.folds[bit]
-                g.add_edge(a.name, b.name, fold=bit, fold_set=fold.set, fold_index=fold.index)
+                name = catalogue.model.layout.fold_name(fold)
+                g.add_edge(
+                    a.name, b.name, fold=bit, fold_set=fold.set, fold_index=fold.index,
+                    fold_name=name,
+                )  # fmt: skip
     return g
 
 

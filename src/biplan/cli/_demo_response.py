@@ -91,7 +91,12 @@ def _figure(path: object, ramp: object, file: Path) -> Path:
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
-    from biplan.plot.response import COLUMN_FIGSIZE, SNAP_COLOR, force_displacement
+    from biplan.plot.response import (
+        COLUMN_FIGSIZE,
+        SNAP_COLOR,
+        force_displacement,
+        legend_above,
+    )
 
     fig, ax = plt.subplots(figsize=COLUMN_FIGSIZE, layout="constrained")
     try:
@@ -105,7 +110,7 @@ def _figure(path: object, ramp: object, file: Path) -> Path:
             label="force ramp 0.8 N/s (dynamic)",
         )
         ax.set_xlabel(r"load-point displacement $z_p$ [mm]")
-        ax.legend(fontsize=6, frameon=False, loc="lower left", bbox_to_anchor=(0.0, 1.0))
+        legend_above(ax, fontsize=6, ncol=1)
         fig.savefig(file, dpi=300)
     finally:
         plt.close(fig)

@@ -11,6 +11,10 @@ intervals over specimens and writes
 * ``--table`` (default: ``--out`` with ``.csv``): the band and the fit on the common grid —
   displacement [mm], phase, count, median [N], std [N], fitted [N], residual [N].
 
+Statistics that mean little (bootstrap intervals from fewer than five specimens, a linear law
+fitted to bistable data, a poor fit: :attr:`Calibration.caveats`) are printed as warnings on
+stderr, also with ``--quiet``, and written as ``# warning:`` comments into ``--out``.
+
 Options given on the command line override those of ``--config`` (schema:
 :func:`biplan.io.specimens.read_calibration_config`).
 """
@@ -226,6 +230,9 @@ def _run(
     if not quiet:
         console.print(_summary(result))
         console.print(text, markup=False, soft_wrap=True)
+    warn = Console(stderr=True, highlight=False)
+    for caveat in result.caveats:  # also with --quiet
+        warn.print(f"[yellow]warning:[/] {escape(caveat.message)}", soft_wrap=True)
     n = result.band.n_specimens
     console.print(
         f"{kind} law from {n} specimens, RMS residual {result.fit.rms:.4g} N; "

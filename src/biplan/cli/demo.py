@@ -151,7 +151,13 @@ def _figures(
     import matplotlib.pyplot as plt
 
     from biplan.plot import cylinder, development, elongation_norm, force_displacement
-    from biplan.plot.response import COLUMN_FIGSIZE, FONT_SIZE, LINE_COLOR, SNAP_COLOR
+    from biplan.plot.response import (
+        COLUMN_FIGSIZE,
+        FONT_SIZE,
+        LINE_COLOR,
+        SNAP_COLOR,
+        legend_above,
+    )
 
     def title(key: str) -> str:
         k = snaps[key]
@@ -179,8 +185,7 @@ def _figures(
                 ha="center",
                 fontsize=FONT_SIZE,
             )
-        if path.switched.any():
-            ax.legend(fontsize=FONT_SIZE - 1, frameon=False, loc="best")
+        legend_above(ax)
         fig.savefig(files[0], dpi=DPI)
     finally:
         plt.close(fig)

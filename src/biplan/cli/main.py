@@ -2,18 +2,21 @@
 
 Subcommands live one per module in :mod:`biplan.cli` and are registered on :data:`app`.
 :func:`main` turns every :class:`~biplan.BiplanError` (invalid configuration, failed solve)
-into a one-line red message on stderr and exit code 2, without a traceback.
+into a one-line red message on stderr and exit code 2, without a traceback, and prints every
+:class:`~biplan._errors.BiplanWarning` (such as the cost of a large tube) as one yellow line on
+stderr when it is issued, before the work it warns of.
 """
 
 from __future__ import annotations
 
+import warnings
 from typing import Annotated
 
 import typer
 from rich.console import Console
 from rich.markup import escape
 
-from biplan._errors import BiplanError
+from biplan._errors import BiplanError, BiplanWarning
 from biplan.cli import calibrate, demo, maps, plot, reproduce, respond, states, validate
 
 __all__ = ["EXIT_BIPLAN_ERROR", "app", "main"]
@@ -73,8 +76,21 @@ def main(argv: list[str] | None = None) -> None:
         With the command's exit status; :data:`EXIT_BIPLAN_ERROR` after a
         :class:`~biplan.BiplanError`, whose message is printed in red on stderr.
     """
+    show = warnings.showwarning
+
+    def show_warning(message, category, filename, lineno, file=None, line=None):  # type: ignore[no-untyped-def]
+        if not issubclass(category, BiplanWarning):
+            return show(message, category, filename, lineno, file, line)
+        Console(stderr=True, highlight=False).print(
+            f"[yellow]warning:[/] {escape(str(message))}", soft_wrap=True
+        )
+        return None
+
     try:
-        app(args=argv, prog_name="biplan")
+        with warnings.catch_warnings():
+            warnings.simplefilter("always", BiplanWarning)
+            warnings.showwarning = show_warning
+            app(args=argv, prog_name="biplan")
     except BiplanError as err:
         Console(stderr=True, highlight=False).print(
             f"[bold red]error:[/] {escape(str(err))}", soft_wrap=True

@@ -18,9 +18,12 @@ with chunk files but no ``manifest.json`` is refused). The merged map is ``DIR/m
 
 Every option, the grid and the output directory are checked before anything is computed
 (``--workers`` ≥ 1; ``--workers``/``--threads`` with ``--scheduler``, and ``--threads`` with
-``--workers`` > 1, are refused: they would be ignored). Points that failed are counted on
-stderr (also with ``--quiet``); a map in which every point failed is written, then the
-command exits with status 2.
+``--workers`` > 1, are refused: they would be ignored). A grid of more than ``--max-points``
+points (default :data:`MAX_POINTS`) is refused with its estimated run time; a grid estimated
+to run longer than :data:`WARN_SECONDS` gets a one-line warning with the estimate
+(:mod:`biplan.analysis.cost`: measured points per second and core). Points that failed are
+counted on stderr (also with ``--quiet``); a map in which every point failed is written, then
+the command exits with status 2.
 """
 
 from __future__ import annotations
@@ -34,14 +37,15 @@ import typer
 from rich.console import Console
 from rich.markup import escape
 
-from biplan._errors import ConvergenceError, check_integer
+from biplan._errors import ConfigError, ConvergenceError, check_integer
 from biplan.cli._checks import options_named, output_directory, refuse_unused
 
 if TYPE_CHECKING:
     from biplan.analysis.sweeps import Evaluator, Grid
     from biplan.geometry import Tube
 
-__all__ = ["app", "design", "plot", "run_map", "stability"]
+__all__ = ["MAX_POINTS", "WARN_SECONDS", "app", "check_size", "design", "plot", "run_map",
+           "stability"]  # fmt: skip
 
 app = typer.Typer(help="Design and stability maps over grids of design parameters.",
                   no_args_is_help=True)  # fmt: skip
@@ -59,6 +63,18 @@ _Threads = Annotated[
 _Resume = Annotated[bool, typer.Option("--resume", help="Continue a killed run in --out.")]
 _Chunk = Annotated[int, typer.Option(help="Points per chunk (and per compiled batch).")]
 _Quiet = Annotated[bool, typer.Option("--quiet", "-q", help="No progress bar or summary.")]
+#: Default of ``--max-points``: the largest grid run without being asked for explicitly
+#: (a design map of this size takes about 30 min on two cores, a stability map about 6 h).
+MAX_POINTS = 100_000
+#: A grid estimated to run longer than this [s] is warned of before it starts.
+WARN_SECONDS = 600.0
+_MaxPoints = Annotated[
+    int,
+    typer.Option(
+        "--max-points",
+        help="Largest grid to run (points); a larger grid is refused with its estimated time.",
+    ),
+]
 #: Internal names of grid values → the option they come from.
 _GRID_OPTIONS = {
     "b": "--b",
@@ -177,6 +193,58 @@ def run_map(
     return ds
 
 
+def check_size(
+    grid: Grid,
+    tube: Tube,
+    evaluator: Evaluator,
+    max_points: int,
+    cores: int,
+    options: tuple[str, ...],
+) -> float | None:
+    """Refuse a grid of more than ``max_points`` points, and warn (stderr, one line) of one
+    estimated to run longer than :data:`WARN_SECONDS` on ``cores`` cores; returns the
+    estimate [s] (None without a measured rate). ``options`` name the grid's axes
+    (``("--b", "--C")``).
+
+    Raises
+    ------
+    ConfigError
+        Naming ``--max-points``, with the grid's size and estimated time.
+    """
+    from biplan.analysis.cost import duration, map_seconds
+
+    check_integer("--max-points", max_points, low=1)
+    seconds = map_seconds(evaluator.name, grid.size, tube.n_modules, cores)
+    shape = " × ".join(f"{n} {o}" for n, o in zip(grid.shape, options, strict=True))
+    where = "" if seconds is None else f"; about {duration(seconds)} on {cores} core(s)"
+    if grid.size > max_points:
+        raise ConfigError(
+            "--max-points",
+            max_points,
+            f"at least the grid's {grid.size} points ({shape} values{where}) to run a grid "
+            "this large",
+        )
+    if seconds is not None and seconds > WARN_SECONDS:
+        Console(stderr=True, highlight=False).print(
+            f"[yellow]warning:[/] {grid.size} points ({shape} values): about "
+            f"{duration(seconds)} on {cores} core(s), at the measured rate of this machine "
+            "class (docs/maps.md)",
+            soft_wrap=True,
+        )
+    return seconds
+
+
+def _cores(workers: int, scheduler: str | None, threads: int) -> int:
+    """Cores the map runs on (a scheduler's are unknown: counted as one)."""
+    from biplan.analysis.scaleout import available_cores
+
+    if scheduler is not None:
+        return 1
+    if workers > 1:
+        return workers
+    return threads or available_cores()
+
+
 def _check_settings(out: Path, workers: int, threads: int) -> None:
     """``--out``, ``--workers`` and ``--threads`` (by the commands first, and by run_map)."""
     output_directory(out)
@@ -225,6 +293,7 @@ def design(
     scheduler: _Scheduler = None,
     threads: _Threads = 0,
     resume: _Resume = False,
+    max_points: _MaxPoints = MAX_POINTS,
     quiet: _Quiet = False,
 ) -> None:
     """Force-controlled design map over (b, C): terminal u_z/l0, u_r/l0, loss of stability."""
@@ -242,6 +311,7 @@ def design(
     tube = biplan.load_config(config)
     with options_named(_GRID_OPTIONS):
         check_grid(tube, grid, ev)
+    check_size(grid, tube, ev, max_points, _cores(workers, scheduler, threads), ("--b", "--C"))
     run_map(tube, grid, ev, out, chunk_size=chunk_size, resume=resume, workers=workers,
             scheduler=scheduler, threads=threads, quiet=quiet)  # fmt: skip
 
@@ -272,6 +342,7 @@ def stability(
     scheduler: _Scheduler = None,
     threads: _Threads = 0,
     resume: _Resume = False,
+    max_points: _MaxPoints = MAX_POINTS,
     quiet: _Quiet = False,
 ) -> None:
     """Displacement-controlled stability map over (C, U/l0) at fixed b: count of stable
@@ -294,6 +365,8 @@ def stability(
     with options_named(_GRID_OPTIONS):
         tube = apply_values(tube, {"b": b})
         check_grid(tube, grid, ev)
+    cores = _cores(workers, scheduler, threads)
+    check_size(grid, tube, ev, max_points, cores, ("--C", "--displacement"))
     size = chunk_size or stability_chunk_size(grid.shape[1])
     ds = run_map(tube, grid, ev, out, chunk_size=size, resume=resume, workers=workers,
                  scheduler=scheduler, threads=threads, quiet=quiet)  # fmt: skip

@@ -16,6 +16,10 @@ attribute rebuilds the model. Kinds:
   fraction of every fold along a path, trajectory or sweep (a stable-branch sweep's phase map
   shows its folds snapping open one by one).
 
+A kind that does not apply to the file (``response`` of a state catalogue, any kind of a map,
+which ``biplan map plot`` draws) is refused after the file is read and before anything is
+drawn; the message names the kinds that apply to it (:func:`kinds_for`).
+
 Static figures are written in the format of the ``--out`` suffix (PNG, PDF, SVG, … — every
 format matplotlib writes); animations as ``.gif`` or ``.mp4``. A file name without a suffix,
 or with one the kind cannot be written as, is refused (the message lists the valid ones), as
@@ -43,7 +47,7 @@ if TYPE_CHECKING:
 
     from biplan.assembly import Model
 
-__all__ = ["Kind", "plot", "suffixes"]
+__all__ = ["Kind", "kinds_for", "plot", "suffixes"]
 
 #: Resolution of static figures [dots per inch].
 DPI = 300
@@ -94,10 +98,45 @@ def _model(dataset: Any) -> Model:
     return model_of(dataset)
 
 
-def _require(dataset: Any, kind: Kind, kinds: tuple[str, ...]) -> None:
-    found = dataset.attrs.get("kind", "?")
-    if found not in kinds:
-        raise ConfigError(f"--kind {kind.value}", f"a {found} result", f"a {' or '.join(kinds)}")
+def kinds_for(dataset: Any) -> tuple[Kind, ...]:
+    """The kinds that apply to a result dataset (by its ``kind`` attribute): every kind for a
+    path, trajectory or stable-branch sweep; development, tube and gallery for a state
+    catalogue; none for anything else (a map, a hierarchy)."""
+    from biplan.analysis.quasistatic import SWEEP_KIND
+
+    found = dataset.attrs.get("kind")
+    if found in (*SERIES_KINDS, SWEEP_KIND):
+        return tuple(k for k in Kind if k is not Kind.gallery)
+    if found == "states":
+        return (Kind.development, Kind.tube, Kind.gallery)
+    return ()
+
+
+def _what(dataset: Any) -> str:
+    """What a result file is, in words."""
+    found = dataset.attrs.get("kind")
+    if found == "states":
+        return "a state catalogue"
+    if found:
+        return f"a {found} result"
+    if "quantity" in dataset.attrs:  # a map (biplan map design|stability)
+        return f"a map ({dataset.attrs['quantity']})"
+    return "a file without a result kind"
+
+
+def _check_kind(dataset: Any, kind: Kind, file: Path) -> None:
+    """Refuse a ``--kind`` that does not apply to ``dataset``, naming those that do."""
+    kinds = kinds_for(dataset)
+    if kind in kinds:
+        return
+    what = f"{_what(dataset)} ({file})"
+    if kinds:
+        valid = f"one of {', '.join(k.value for k in kinds)} for {what}"
+    elif "quantity" in dataset.attrs:
+        valid = f"nothing `biplan plot` draws for {what}: `biplan map plot` draws a map"
+    else:
+        valid = f"nothing `biplan plot` draws for {what}"
+    raise ConfigError("--kind", kind.value, valid)
 
 
 def _root(ax: Any) -> Figure:
@@ -114,12 +153,10 @@ def _state(dataset: Any, step: int) -> np.ndarray:
 
 def _figure(dataset: Any, kind: Kind, step: int, color_by: str, guides: bool, view: dict) -> Figure:
     from biplan import plot
-    from biplan.analysis.quasistatic import SWEEP_KIND
     from biplan.plot import diagnostics
     from biplan.plot.gallery import gallery
 
     if kind is Kind.gallery:
-        _require(dataset, kind, ("states",))
         return gallery(dataset, _model(dataset), color_by=color_by, **view)
     if kind in (Kind.development, Kind.tube):
         model = _model(dataset)
@@ -128,7 +165,6 @@ def _figure(dataset: Any, kind: Kind, step: int, color_by: str, guides: bool, vi
             return _root(plot.development(model, q, color_by=color_by, guides=guides))
         return _root(plot.cylinder(model, q, color_by=color_by, colorbar=True, **view))
     if kind is Kind.response:
-        _require(dataset, kind, (*SERIES_KINDS, SWEEP_KIND))
         n = dataset["force"].size
         stable = dataset["stable"].values if "stable" in dataset else np.ones(n)
         switched = dataset["switched"].values if "switched" in dataset else np.zeros(n)
@@ -141,7 +177,6 @@ def _figure(dataset: Any, kind: Kind, step: int, color_by: str, guides: bool, vi
         if "limit_point" in dataset:
             curve.limit_point = np.asarray(dataset["limit_point"].values, dtype=bool)
         return _root(plot.force_displacement(cast("Any", curve)))
-    _require(dataset, kind, (*SERIES_KINDS, SWEEP_KIND))
     draw = {
         Kind.energy: diagnostics.energy_by_fold_set,
         Kind.eigenvalue: diagnostics.min_eigenvalue,
@@ -199,14 +234,13 @@ def plot(
     if dpi is not None:
         check_finite("--dpi", dpi)
     dataset = _load(result)
+    _check_kind(dataset, kind, result)
     suffix = out.suffix.lower()
     try:
         out.parent.mkdir(parents=True, exist_ok=True)
         if kind is Kind.animation:
-            from biplan.analysis.quasistatic import SWEEP_KIND
             from biplan.plot.animation import animate
 
-            _require(dataset, kind, (*SERIES_KINDS, SWEEP_KIND))
             model = _model(dataset)
             animate(
                 dataset,

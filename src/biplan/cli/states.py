@@ -12,10 +12,14 @@ DIR:
 * ``transitions.png`` (pathways highlighted), ``endpoint_space.png``, ``distributions.png``.
 
 ``path`` prints the pathway between two states (fewest fold switches, or least barrier with
-``--weight barrier``) and each step's barrier. START and TARGET are state names: the
-hexadecimal label (any case, exactly the digits of the tube's bistable folds, e.g. ``2a`` for
-seven folds), with the ``.2``, ``.3``… suffix of a repeated label; they are checked against
-the tube before anything is enumerated. ``states`` checks ``--out`` before it starts.
+``--weight barrier``) and each step's barrier and fold, named as in the result files
+(``helical 2``, ``circular 1|2``: modules count from 1 at the base). START and TARGET are
+state names: the hexadecimal label (any case, exactly the digits of the tube's bistable folds,
+e.g. ``2a`` for seven folds), with the ``.2``, ``.3``… suffix of a repeated label; they are
+checked against the tube before anything is enumerated. ``--states FILE`` reads the states
+from a catalogue written by ``states`` instead of enumerating them again; the file is checked
+first (a catalogue of the same tube, holding START and TARGET). ``states`` checks ``--out``
+before it starts.
 """
 
 from __future__ import annotations
@@ -232,6 +236,20 @@ def _annotate(
         annotate_barriers(graph, model, catalogue, edges=edges, departure=departure)
 
 
+def _catalogue_file(file: Path, tube: Tube, names: dict[str, str]) -> Any:
+    """The checked dataset of ``--states FILE`` holding the states ``names`` (argument →
+    state name)."""
+    from biplan.io.catalogue import read_catalogue
+
+    with options_named({"catalogue": "--states"}):
+        dataset = read_catalogue(file, tube)
+    held = [str(n) for n in dataset["state"].values]
+    for argument, name in names.items():
+        if name not in held:
+            raise ConfigError(argument, name, f"a stable state of {file}: {', '.join(held)}")
+    return dataset
+
+
 def path(
     config: Annotated[Path, typer.Argument(help="Tube configuration (TOML).", exists=True)],
     start: Annotated[str, typer.Argument(help="Start state label, e.g. 2A.")],
@@ -240,18 +258,34 @@ def path(
         str, typer.Option(help="'switches' (fewest fold switches) or 'barrier'.")
     ] = "switches",
     all_paths: Annotated[bool, typer.Option("--all", help="Every shortest pathway.")] = False,
+    states_file: Annotated[
+        Path | None,
+        typer.Option(
+            "--states",
+            help="State catalogue of this tube (states.nc of `biplan states`): read instead "
+            "of enumerating the states again.",
+            show_default=False,
+        ),
+    ] = None,
     quiet: Annotated[bool, typer.Option("--quiet", "-q", help="No progress.")] = False,
 ) -> None:
     """Print the transition pathway between two stable states and its barriers."""
     import biplan
     from biplan.analysis.transitions import pathway, transition_graph
+    from biplan.io.catalogue import load_catalogue
 
     if weight not in ("switches", "barrier"):
         raise ConfigError("--weight", weight, "'switches' or 'barrier'")
     tube = biplan.load_config(config)
     start, target = state_name("START", start, tube), state_name("TARGET", target, tube)
+    dataset = None
+    if states_file is not None:
+        dataset = _catalogue_file(states_file, tube, {"START": start, "TARGET": target})
     model = biplan.Model(tube)
-    catalogue = _progress_enumeration(model, quiet)
+    if dataset is None:
+        catalogue = _progress_enumeration(model, quiet)
+    else:
+        catalogue = load_catalogue(dataset, model)
     graph = transition_graph(catalogue)
     if weight == "barrier":
         _annotate(model, catalogue, graph, quiet)
@@ -277,6 +311,6 @@ def path(
             force = d.get("departure_force", float("nan"))
             force_text = f", departure force {force:.4g} N" if d.get("forward_from") == u else ""
             console.print(
-                f"  {u} → {v}: fold {d['fold_set']} {d['fold_index']}, barrier {up:.4g} N·mm "
+                f"  {u} → {v}: fold {d['fold_name']}, barrier {up:.4g} N·mm "
                 f"({d.get('mep_status', '?')}){force_text}"
             )

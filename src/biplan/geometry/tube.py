@@ -61,6 +61,22 @@ class TubeLayout:
     def has_base_connector(self) -> bool:
         return bool(self.connectors) and self.connectors[0].lower is None
 
+    def fold_name(self, fold: FoldRef) -> str:
+        """The name of a fold in every file, figure and message: modules count from 1 at the
+        base, so ``"helical 1"`` … ``"helical N"`` and ``"circular 0|1"`` (the base fold,
+        between the clamp and module 1), ``"circular 1|2"`` … ``"circular N-1|N"``."""
+        if fold.set == "helical":
+            return f"helical {fold.index + 1}"
+        c = self.connectors[fold.index]
+        return f"circular {0 if c.lower is None else c.lower + 1}|{c.upper + 1}"
+
+    @property
+    def fold_names(self) -> tuple[str, ...]:
+        """:meth:`fold_name` of every fold, helical then circular (the kernels' fold order)."""
+        folds = [FoldRef("helical", i) for i in range(self.n_modules)]
+        folds += [FoldRef("circular", c) for c in range(self.n_connectors)]
+        return tuple(self.fold_name(f) for f in folds)
+
 
 @dataclass(frozen=True)
 class Tube:

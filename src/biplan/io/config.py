@@ -13,7 +13,7 @@ Schema
     pitch = 3.6               # l [mm], > 0
     helical_angle = 60.0      # β [deg], in (0, 90) with l tan β < 2πR
     # b = 0.573               # alternative to helical_angle: β from b = (l / cos β) / (2πR)
-    n_modules = 6             # N, an integer ≥ 1
+    n_modules = 6             # N, an integer in [1, 400] (above 48: a warning with the cost)
     base_fold = true          # optional, default true: a circular fold joins module 1 to the clamp
     surface_density = 3.6e-10 # optional, μ [t/mm²], > 0
 
@@ -50,7 +50,9 @@ geometry.b : float
     Geometric ratio b; β then follows from :meth:`Development.helical_angle_for_b` at the given
     R and l.
 geometry.n_modules : int
-    Number of modules N ≥ 1.
+    Number of modules N, 1 ≤ N ≤ :data:`~biplan.analysis.cost.MAX_MODULES` (400). Above
+    :data:`~biplan.analysis.cost.LARGE_MODULES` (48) loading warns (:class:`CostWarning`)
+    with the estimated compile time and time per solved state.
 geometry.base_fold : bool, optional
     Default ``true``.
 geometry.surface_density : float, optional
@@ -95,6 +97,7 @@ import math
 import numbers
 import os
 import tomllib
+import warnings
 from collections import Counter
 from collections.abc import Iterator, Mapping
 from contextlib import contextmanager
@@ -102,7 +105,8 @@ from dataclasses import fields
 from pathlib import Path
 from typing import Any
 
-from biplan._errors import ConfigError
+from biplan._errors import ConfigError, CostWarning
+from biplan.analysis.cost import LARGE_MODULES, MAX_MODULES, duration, tube_cost
 from biplan.geometry import Development, Tube
 from biplan.laws import FoldLaw, LinearLaw, TransitionReading, TrilinearLaw
 from biplan.options import ModelOptions
@@ -304,9 +308,19 @@ def _read_geometry(r: _Reader, data: Mapping[str, Any]) -> dict[str, Any]:
     geo = r.table(data, "geometry", "", required=True)
     r.check_keys(geo, _GEOMETRY_KEYS, "geometry")
     dev = _read_development(r, geo)
-    n = r.integer(r.require(geo, "n_modules", "geometry"), "geometry.n_modules", "an integer ≥ 1")
-    if n < 1:
-        raise r.fail("geometry.n_modules", n, "an integer ≥ 1")
+    valid = f"an integer in [1, {MAX_MODULES}] (the largest tube biplan builds from a file)"
+    n = r.integer(r.require(geo, "n_modules", "geometry"), "geometry.n_modules", valid)
+    if not 1 <= n <= MAX_MODULES:
+        raise r.fail("geometry.n_modules", n, valid)
+    if n > LARGE_MODULES:
+        cost = tube_cost(n)
+        warnings.warn(
+            f"{r.source}: geometry.n_modules = {n} is a large tube: expect about "
+            f"{duration(cost.cold_start)} to compile and {duration(cost.step)} per solved "
+            "state on a 2-core machine (measured up to 384 modules; docs/performance.md)",
+            CostWarning,
+            stacklevel=4,
+        )
     out: dict[str, Any] = {"development": dev, "n_modules": n}
     out["base_fold"] = r.boolean(geo.get("base_fold", True), "geometry.base_fold")
     if "surface_density" in geo:

@@ -460,13 +460,16 @@ def calibration_toml(
 ) -> str:
     """The law block of a calibration, with its provenance, intervals and residuals as comments.
 
-    The block drops into a tube config (``[laws.circular]`` or ``[laws.helical]``).
+    The block drops into a tube config (``[laws.circular]`` or ``[laws.helical]``). The
+    calibration's caveats (:attr:`Calibration.caveats`) come first, one ``# warning:`` line
+    each.
     """
     geo = result.geometry
     opts = result.options
     kind = "trilinear" if isinstance(result.law, TrilinearLaw) else "linear"
     level = 100 * opts.confidence
-    comments = [
+    comments = [f"warning: {c.message}" for c in result.caveats]
+    comments += [
         f"biplan calibrate {kind}: {result.band.n_specimens} specimens"
         + (f" in {source}" if source else ""),
         f"specimen geometry: R = {geo.radius:g} mm, {geo.n_folds} circular fold(s) in series, "

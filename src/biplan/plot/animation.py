@@ -182,7 +182,8 @@ def animate(
     ax_tube = cast("Axes3D", fig.add_subplot(grid[1], projection="3d"))
     ax_fu = fig.add_subplot(grid[2])
     curve = _curve(dataset)
-    force_displacement(cast("Any", curve), ax=ax_fu)  # any object with the F–U arrays
+    # any object with the F–U arrays; no legend in the small panel of a frame
+    force_displacement(cast("Any", curve), ax=ax_fu, legend=False)
     (marker,) = ax_fu.plot([], [], "o", color=MARKER_COLOR, ms=5, zorder=6, gid="marker")
     add_colorbar(ax_dev, color_by, cmap, norm)
     label = fig.suptitle("", fontsize=FONT_SIZE)

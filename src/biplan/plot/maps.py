@@ -5,7 +5,9 @@
   C = 1.444) and points where stability was lost hatched; failed points are left blank.
 * :func:`stability_map` — regions coloured monostable / bistable / multistable over (U/l₀, C)
   (grey where no stable equilibrium was found, white where the point failed), the transition
-  band hatched and outlined.
+  band hatched and outlined. The axes end at the grid's first and last values (each point's
+  cell reaches halfway to its neighbours, so the cells of the outer points are half cells),
+  and the legend names only the regimes the map holds.
 
 Same contract as every plotting function: ``f(ds, *, ax=None, ...) -> Axes``; a new
 journal-column figure (3.4 × 2.6 in, 8 pt) when no Axes is given; no ``show()``.
@@ -23,7 +25,7 @@ from biplan.plot.response import COLUMN_FIGSIZE, FONT_SIZE, _new_axes, _style, c
 if TYPE_CHECKING:
     from matplotlib.axes import Axes
 
-__all__ = ["REGIME_COLORS", "VALIDATED_DESIGN", "design_map", "stability_map"]
+__all__ = ["REGIME_COLORS", "VALIDATED_DESIGN", "design_map", "grid_edges", "stability_map"]
 
 #: (b, C) of the validated semi-bistable design (SI Table calib).
 VALIDATED_DESIGN = (0.573, 1.444)
@@ -32,6 +34,17 @@ REGIME_COLORS = ("#56B4E9", "#E69F00", "#CC79A7")
 #: Colour of points where no stable equilibrium was found (regime 0).
 NONE_COLOR = "#BBBBBB"
 _LABELS = {"u_z": r"$u_z/l_0$", "u_r": r"$u_r/l_0$"}
+
+
+def grid_edges(x: np.ndarray) -> np.ndarray:
+    """Cell edges of grid values ``x`` that end at the grid: the midpoints between
+    neighbours, and ``x[0]``, ``x[-1]`` outside them (so a map drawn on them spans exactly
+    the grid). A single value gets a cell 1 wide around it (never below zero for a value
+    ≥ 0): a grid of one value has no extent to end at."""
+    x = np.asarray(x, dtype=float)
+    if x.size == 1:
+        return cell_edges(x, clip_at_zero=True)
+    return np.r_[x[0], 0.5 * (x[1:] + x[:-1]), x[-1]]
 
 
 def _require(ds: Any, names: tuple[str, ...], what: str) -> None:
@@ -122,10 +135,11 @@ def stability_map(ds: Any, *, ax: Axes | None = None, legend: bool = True) -> Ax
     ax = _new_axes(ax, COLUMN_FIGSIZE)
     reg = ds["regime"].transpose("C", "displacement").values
     u, c = ds["displacement"].values, ds["C"].values
-    ue, ce = cell_edges(u, clip_at_zero=True), cell_edges(c, clip_at_zero=True)
+    ue, ce = grid_edges(u), grid_edges(c)
     cmap = ListedColormap((NONE_COLOR, *REGIME_COLORS)).with_extremes(bad="white")
     norm = BoundaryNorm([-0.5, 0.5, 1.5, 2.5, 3.5], cmap.N)
     ax.pcolormesh(ue, ce, np.ma.masked_invalid(reg), cmap=cmap, norm=norm, shading="flat")
+    band = np.zeros(reg.shape, dtype=bool)
     if "transition" in ds:
         band = ds["transition"].transpose("C", "displacement").values > 0.5
         for j, i in zip(*np.nonzero(band), strict=True):
@@ -139,16 +153,20 @@ def stability_map(ds: Any, *, ax: Axes | None = None, legend: bool = True) -> Ax
             ax.add_collection(LineCollection(outline, colors="k", linewidths=0.8))
     ax.set_xlim(ue[0], ue[-1])
     ax.set_ylim(ce[0], ce[-1])
-    if legend:
+    if legend:  # only what the map holds
         handles = [
             Patch(color=col, label=lab)
-            for col, lab in zip(
-                REGIME_COLORS, ("monostable", "bistable", "multistable"), strict=True
+            for value, col, lab in zip(
+                (1, 2, 3), REGIME_COLORS, ("monostable", "bistable", "multistable"), strict=True
             )
+            if np.any(reg == value)
         ]
         if np.any(reg == 0):
             handles.append(Patch(color=NONE_COLOR, label="none found"))
-        handles.append(Patch(facecolor="none", edgecolor="k", hatch="xx", label="transition"))
+        if np.any(np.isnan(reg)):
+            handles.append(Patch(facecolor="white", edgecolor="0.5", lw=0.5, label="failed"))
+        if band.any():
+            handles.append(Patch(facecolor="none", edgecolor="k", hatch="xx", label="transition"))
         ax.legend(  # above the axes: the regions fill the whole frame
             handles=handles, fontsize=FONT_SIZE - 1, loc="lower center", frameon=False,
             bbox_to_anchor=(0.5, 1.0), ncol=min(len(handles), 4), handlelength=1.2,

@@ -10,7 +10,9 @@ unstable stretches dashed; a displacement-controlled snap (the sweep left an equ
 stable one on another branch, ``path.switched``) breaks the curve, is joined to the previous
 step by a thin dotted drop and marked with an open circle. Failed steps (NaN force) are gaps.
 States flagged ``is_event`` (located limit points and bifurcations of a
-:class:`~biplan.solvers.results.Path`) are marked with crosses.
+:class:`~biplan.solvers.results.Path`) are marked with crosses. A legend names the styles
+drawn (stable, unstable, branch switch, limit point) and sits above the axes
+(:func:`legend_above`), where it cannot cover the curve.
 """
 
 from __future__ import annotations
@@ -24,7 +26,7 @@ if TYPE_CHECKING:
 
     from biplan.analysis.quasistatic import QuasiStaticPath
 
-__all__ = ["COLUMN_FIGSIZE", "FONT_SIZE", "cell_edges", "force_displacement"]
+__all__ = ["COLUMN_FIGSIZE", "FONT_SIZE", "cell_edges", "force_displacement", "legend_above"]
 
 #: Journal single-column figure size [in] and text size [pt].
 COLUMN_FIGSIZE = (3.4, 2.6)
@@ -71,6 +73,26 @@ def cell_edges(x: np.ndarray, clip_at_zero: bool = False) -> np.ndarray:
     return e
 
 
+def legend_above(ax: Axes, **kwargs: Any) -> Any:
+    """The legend of every labelled artist of ``ax``, in a row above the axes (off the data:
+    nothing is drawn there); None when nothing is labelled. ``kwargs`` go to ``ax.legend``."""
+    handles, labels = ax.get_legend_handles_labels()
+    if not handles:
+        return None
+    options = {
+        "fontsize": FONT_SIZE - 1,
+        "frameon": False,
+        "loc": "lower left",
+        "bbox_to_anchor": (0.0, 1.0),
+        "ncol": min(len(handles), 2),
+        "handlelength": 1.8,
+        "columnspacing": 1.0,
+        "borderaxespad": 0.2,
+        **kwargs,
+    }
+    return ax.legend(handles, labels, **options)
+
+
 def _runs(mask: np.ndarray) -> list[tuple[int, int]]:
     """Half-open index ranges [i, j) of the contiguous True runs of a boolean mask."""
     edges = np.diff(np.concatenate([[0], mask.astype(np.int8), [0]]))
@@ -84,6 +106,7 @@ def force_displacement(
     normalise: float | None = None,
     color: str = LINE_COLOR,
     label: str | None = None,
+    legend: bool = True,
 ) -> Axes:
     """Plot the end force F [N] against the prescribed displacement U [mm] of a sweep.
 
@@ -100,7 +123,11 @@ def force_displacement(
     color : str
         Line colour of the path.
     label : str, optional
-        Legend label of the path (attached to its first stretch).
+        Name of the path in the legend: its stretches are labelled "``label``, stable" and
+        "``label``, unstable" (default "stable" and "unstable").
+    legend : bool
+        Draw the legend above the axes (:func:`legend_above`; a caller that adds artists
+        may call it again).
 
     Returns
     -------
@@ -126,20 +153,21 @@ def force_displacement(
 
     ok = np.isfinite(f) & np.isfinite(u)
     n = len(u)
-    first_label = label
+    # Each style is labelled once, on its first stretch.
+    names = {"-": "stable", "--": "unstable"}
+    if label is not None:
+        names = {k: f"{label}, {v}" for k, v in names.items()}
     # Stable stretches: runs of converged stable steps, cut where the sweep snapped.
     for i, j in _runs(ok & stable):
         cuts = [k for k in range(i + 1, j) if switched[k]]
         for a, b in zip([i, *cuts], [*cuts, j], strict=True):
-            ax.plot(u[a:b], f[a:b], "-", color=color, lw=1.2, label=first_label)
-            first_label = None
+            ax.plot(u[a:b], f[a:b], "-", color=color, lw=1.2, label=names.pop("-", None))
     # Unstable stretches, joined to the converged neighbours they leave and enter (not across
     # a snap, which is drawn as a drop below).
     for i, j in _runs(ok & ~stable):
         lo = i - 1 if i > 0 and ok[i - 1] and not switched[i] else i
         hi = j + 1 if j < n and ok[j] and not switched[j] else j
-        ax.plot(u[lo:hi], f[lo:hi], "--", color=color, lw=1.2, label=first_label)
-        first_label = None
+        ax.plot(u[lo:hi], f[lo:hi], "--", color=color, lw=1.2, label=names.pop("--", None))
 
     snaps = np.flatnonzero(switched & ok)
     for k in snaps:
@@ -178,5 +206,7 @@ def force_displacement(
     ax.set_ylabel(r"$F$ [N]")
     ax.axhline(0.0, color="0.8", lw=0.6, zorder=0)
     ax.margins(x=0.02)
+    if legend:
+        legend_above(ax)
     _style(ax)
     return ax

@@ -3,7 +3,10 @@
 * :func:`transition_diagram` — the state-transition graph, states in columns by number of open
   folds, Hamming-1 edges in grey and chosen pathways highlighted;
 * :func:`endpoint_space` — the 3D scatter of the states in (u_z/l₀, u_r/l₀, Θ), coloured by
-  slope branch (open helical folds);
+  slope branch (open helical folds); the Θ axis spans Θ's range ([0, 1], or [−1, 1] when a
+  state tilts the other way) and the title states what Θ = 1 is (max |θ| in rad); states are
+  named only where their names do not overlap (:func:`readable_labels`), and the title says
+  how many are;
 * :func:`distributions` — state counts over Θ, u_z/l₀ and u_r/l₀ and the branch-wise RMS
   relations, from :func:`biplan.analysis.hierarchy.hierarchy`.
 """
@@ -21,13 +24,13 @@ if TYPE_CHECKING:
     import networkx as nx
     from matplotlib.axes import Axes
 
-__all__ = ["distributions", "endpoint_space", "transition_diagram"]
+__all__ = ["distributions", "endpoint_space", "readable_labels", "transition_diagram"]
 
 #: Height [in] per state of the tallest column of :func:`transition_diagram` (a 4.2-in figure
 #: holds 20; larger catalogues, e.g. 242 states of a five-module tube, get a taller figure).
 ROW_HEIGHT = 0.165
-#: :func:`endpoint_space` names the states only up to this many (beyond, labels overlap).
-MAX_ANNOTATED = 80
+#: Gap [px] :func:`readable_labels` keeps between two names.
+LABEL_GAP = 2.0
 
 #: Okabe–Ito colours for pathways and slope branches.
 PALETTE = ("#0072B2", "#D55E00", "#009E73", "#CC79A7", "#E69F00", "#56B4E9", "#F0E442", "#000000")
@@ -90,17 +93,60 @@ def transition_diagram(
     return ax
 
 
+def readable_labels(texts: Sequence[Any], occupied: Sequence[Any] = ()) -> list[Any]:
+    """Hide every text of ``texts`` (in priority order) that would overlap, in display
+    coordinates (with a gap of :data:`LABEL_GAP` px), a text kept before it or an artist of
+    ``occupied`` (a legend, a title: never hidden); returns the texts kept.
+
+    The figure is drawn first, so that the positions are those of its final layout.
+    """
+    if not texts:
+        return []
+    fig = texts[0].get_figure(root=True)
+    fig.canvas.draw()
+    renderer = fig.canvas.get_renderer()
+    kept: list[Any] = []
+    boxes = [a.get_window_extent(renderer) for a in occupied]
+    for text in texts:
+        box = text.get_window_extent(renderer).padded(LABEL_GAP / 2)
+        if any(box.overlaps(other) for other in boxes):
+            text.set_visible(False)
+            continue
+        kept.append(text)
+        boxes.append(box)
+    return kept
+
+
+def _label_order(states: Any, points: np.ndarray) -> list[int]:
+    """States to name first: the extremes of each coordinate, then by energy (lowest first,
+    when the catalogue has it), then in catalogue order."""
+    first: list[int] = []
+    for column in points.T:
+        for k in (int(np.argmin(column)), int(np.argmax(column))):
+            if k not in first:
+                first.append(k)
+    rest = np.arange(len(points))
+    if "energy" in states:
+        rest = np.argsort(np.asarray(states["energy"].values, dtype=float), kind="stable")
+    return first + [int(k) for k in rest if int(k) not in first]
+
+
 def endpoint_space(states: Any, *, ax: Axes | None = None, annotate: bool = True) -> Axes:
     """3D scatter of the states in endpoint space (u_z/l₀, u_r/l₀, Θ), by slope branch.
+
+    Θ = θ / max|θ| (MODEL §15): its axis spans [0, 1], or [−1, 1] when a state tilts the
+    other way, and the title gives max|θ| [rad] when the catalogue holds θ. The names of the
+    states are drawn only where they do not overlap (:func:`readable_labels`, extremes first,
+    then by energy); the title says how many of the states are named.
 
     Parameters
     ----------
     states : xarray.Dataset
         A state catalogue (``StateCatalogue.to_dataset()`` or a ``states.nc`` file).
     annotate : bool
-        Name every state (only for catalogues of at most :data:`MAX_ANNOTATED` states).
+        Name the states (a readable subset).
     """
-    ax = _new_axes(ax, (4.2, 3.6), projection="3d")
+    ax = _new_axes(ax, (4.2, 3.8), projection="3d")
     l0 = float(states.attrs["initial_length"])
     uz = np.asarray(states["u_z"].values, dtype=float) / l0
     ur = np.asarray(states["u_r"].values, dtype=float) / l0
@@ -117,14 +163,29 @@ def endpoint_space(states: Any, *, ax: Axes | None = None, annotate: bool = True
             label=f"{b} open helical",
             depthshade=False,
         )
-    if annotate and uz.size <= MAX_ANNOTATED:
-        for name, x, y, z in zip(states["state"].values, uz, ur, th, strict=True):
-            ax.text(x, y, z, f" {name}", fontsize=FONT_SIZE - 3)  # type: ignore[arg-type]
     ax.set_xlabel("$u_z/l_0$")
     ax.set_ylabel("$u_r/l_0$")
-    ax.set_zlabel(r"$\Theta$")  # type: ignore[attr-defined]
-    ax.legend(fontsize=FONT_SIZE - 1, frameon=False, loc="upper left")
+    ax.set_zlabel(r"$\Theta = \theta/\max|\theta|$")  # type: ignore[attr-defined]
+    low = -1.0 if np.nanmin(th, initial=0.0) < 0.0 else 0.0
+    ax.set_zlim(low, 1.0)  # type: ignore[attr-defined]
+    ax.set_zticks(np.linspace(low, 1.0, 3 if low == 0.0 else 5))  # type: ignore[attr-defined]
+    legend = ax.legend(fontsize=FONT_SIZE - 1, frameon=False, loc="upper left")
     _style(ax)
+    scale = f"Θ ∈ [{low:g}, 1]"
+    if "theta" in states:
+        theta = np.abs(np.asarray(states["theta"].values, dtype=float))
+        scale += f", Θ = 1 at |θ| = {np.nanmax(theta, initial=0.0):.3g} rad"
+    texts = []
+    if annotate:
+        names = [str(n) for n in states["state"].values]
+        for k in _label_order(states, np.column_stack([uz, ur, th])):
+            text = ax.text(uz[k], ur[k], th[k], f" {names[k]}", fontsize=FONT_SIZE - 3)  # type: ignore[arg-type]
+            texts.append(text)
+    n = uz.size
+    count = "\nnames: {} of {} states" if annotate else ""
+    title = ax.set_title(scale + count.format(n, n), fontsize=FONT_SIZE - 1)
+    kept = readable_labels(texts, occupied=[legend, title])  # same title height: same layout
+    title.set_text(scale + count.format(len(kept), n))
     return ax
 
 

@@ -206,13 +206,9 @@ class TrajectoryStats:
 
 
 def fold_names(model: Model) -> list[str]:
-    """'helical 1'…'helical N' then the circular folds 'circular 0|1' (base fold) … ."""
-    n = model.layout.n_modules
-    names = [f"helical {i + 1}" for i in range(n)]
-    for c in model.layout.connectors:
-        lower = 0 if c.lower is None else c.lower + 1
-        names.append(f"circular {lower}|{c.upper + 1}")
-    return names
+    """'helical 1'…'helical N' then the circular folds 'circular 0|1' (base fold) … (the names
+    of :meth:`~biplan.geometry.TubeLayout.fold_name`)."""
+    return list(model.layout.fold_names)
 
 
 def observables(model: Model, obs: Observation, control_value: np.ndarray) -> dict[str, np.ndarray]:
