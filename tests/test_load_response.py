@@ -147,6 +147,14 @@ def test_pressure_control_reaches_its_stop_in_kpa_files() -> None:
     area = np.pi * model.tube.development.radius**2
     assert r.snaps[0].load_parameter * area == pytest.approx(peak.force, rel=1e-3)
     assert "segment" in ds and int(ds["switched"].sum()) == len(r.snaps)
+    # `biplan plot --kind response` of the file draws the controlled pressure [kPa]
+    from biplan.cli.plot import Kind, _figure
+
+    fig = _figure(ds, Kind.response, 0, "elongation", False, {})
+    ax = fig.axes[0]
+    assert "[kPa]" in ax.get_ylabel()
+    drawn = np.concatenate([line.get_ydata() for line in ax.get_lines() if len(line.get_ydata())])
+    assert drawn.max() == pytest.approx(200.0)
 
 
 def test_readme_reports_the_located_peak() -> None:

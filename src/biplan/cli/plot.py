@@ -168,15 +168,21 @@ def _figure(dataset: Any, kind: Kind, step: int, color_by: str, guides: bool, vi
         n = dataset["force"].size
         stable = dataset["stable"].values if "stable" in dataset else np.ones(n)
         switched = dataset["switched"].values if "switched" in dataset else np.zeros(n)
+        # under pressure control the curve shows the controlled pressure [kPa], as respond's
+        pressure = dataset.attrs.get("control") == "pressure" and "load_parameter" in dataset
         curve = SimpleNamespace(
             displacement=dataset["displacement"].values,
-            force=dataset["force"].values,
+            force=dataset["load_parameter" if pressure else "force"].values,
             stable=np.asarray(stable, dtype=bool),
             switched=np.asarray(switched, dtype=bool),
         )
         if "limit_point" in dataset:
             curve.limit_point = np.asarray(dataset["limit_point"].values, dtype=bool)
-        return _root(plot.force_displacement(cast("Any", curve)))
+        ax = plot.force_displacement(cast("Any", curve))
+        if pressure:
+            unit = dataset["load_parameter"].attrs.get("units", "kPa")
+            ax.set_ylabel(f"pressure $p$ [{unit}]")
+        return _root(ax)
     draw = {
         Kind.energy: diagnostics.energy_by_fold_set,
         Kind.eigenvalue: diagnostics.min_eigenvalue,
