@@ -34,7 +34,7 @@ from typing import Any
 import numpy as np
 
 from biplan._errors import ConfigError, check_integer
-from biplan.analysis.quasistatic import relax
+from biplan.analysis.quasistatic import KICK, relax
 from biplan.analysis.stability import Verdict, reduced_hessian
 from biplan.assembly import Model
 from biplan.solvers.continuation import ArcLength, trace_path
@@ -66,8 +66,6 @@ PEAK_METHOD = ArcLength(initial_step=0.05, max_step=0.1)
 TURN_REFINEMENT = 16
 TURN_ROUNDS = 3
 TURN_TOLERANCE = 1e-5
-#: Length [mm, rad] of the initial displacement of a descent along a mode.
-KICK = 0.1
 #: |cos| between the most unstable mode and the path's last secant above which only the
 #: sense the path was leaving in is descended.
 ALIGNED = 0.1
