@@ -5,8 +5,9 @@ equilibrium and classifies the result with the reduced Hessian. When the equilib
 is unstable (for example the symmetric state of folds in series past the force peak), the
 sweep descends from it along its most unstable eigenmode (both signs; the next modes only if
 that finds nothing) at the same U_k and keeps the stable equilibrium of lowest energy — the
-branch a displacement-controlled test jumps to. If none is found, the unstable equilibrium is recorded
-as such. Path following through limit points (arc length) lives in the continuation solver.
+branch a displacement-controlled test jumps to. If none is found, the unstable equilibrium is
+recorded as such. Path following through limit points (arc length) lives in the continuation
+solver.
 """
 
 from __future__ import annotations
