@@ -142,7 +142,7 @@ def load_response(
         # (the located event, or the last stable state, before it) — a load that turns back
         # on stable states (a kink or a contact) ends it too: past the turn, no equilibrium
         # nearby carries more load.
-        sense = float(np.sign(control.stop - _start_value(stretch)))
+        sense = float(np.sign(control.stop - stretch.load_parameter[0]))
         k, end = _stable_end(stretch, end, sense)
         for _ in range(TURN_ROUNDS):
             if (
@@ -187,11 +187,6 @@ def first_snap(
     ``method`` defaults to :data:`PEAK_METHOD`."""
     response = load_response(model, Control.force(up_to), method, stop_at_snap=True)
     return response.snaps[0] if response.snaps else None
-
-
-def _start_value(path: Path) -> float:
-    """Λ of the first state of a path."""
-    return float(path.load_parameter[0])
 
 
 def _stable_end(path: Path, end: int | None, sense: float) -> tuple[int, int | None]:

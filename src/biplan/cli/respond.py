@@ -254,7 +254,7 @@ def _report(
     quiet: bool,
 ) -> None:  # fmt: skip
     """Print what the run was, how it ended, its snaps and its summary."""
-    from biplan.solvers import ControlKind
+    from biplan.solvers.results import display_units
 
     report = Console(quiet=quiet, highlight=False)
     level = "green" if result.completed else "yellow"
@@ -268,9 +268,9 @@ def _report(
         )
     report.print(f"[{level}]{what}{result.message}[/]")
     snaps = getattr(result, "snaps", ())
-    kpa = result.control.kind is ControlKind.PRESSURE
+    scale, unit = display_units(result.control)
     for snap in snaps:
-        report.print("  " + snap.describe("kPa" if kpa else "N", 1e3 if kpa else 1.0))
+        report.print("  " + snap.describe(unit, scale))
     report.print("\n".join(summary.lines()) + f"\nwrote {out}/response.{{nc,csv,png}}")
     note = bifurcation_note(result)
     if note and method is Method.arclength:
@@ -431,15 +431,17 @@ def _figure(result: object, file: Path) -> None:
     import matplotlib.pyplot as plt
 
     from biplan.plot.response import COLUMN_FIGSIZE, FONT_SIZE, LINE_COLOR, force_displacement
+    from biplan.solvers.results import display_units
 
     control = getattr(result, "control", None)
     pressure = control is not None and control.kind.value == "pressure"
     shown: object = result
     if pressure:  # the same curve with the load parameter (kPa) in place of the force
+        kpa = display_units(control)[0]  # type: ignore[arg-type]
         flags = {n: getattr(result, n) for n in ("switched", "is_event") if hasattr(result, n)}
         shown = types.SimpleNamespace(
             displacement=result.displacement,  # type: ignore[attr-defined]
-            force=1e3 * np.asarray(result.load_parameter),  # type: ignore[attr-defined]
+            force=kpa * np.asarray(result.load_parameter),  # type: ignore[attr-defined]
             stable=result.stable,  # type: ignore[attr-defined]
             **flags,
         )

@@ -30,6 +30,7 @@ __all__ = [
     "Trajectory",
     "TrajectoryStats",
     "TrajectoryStatus",
+    "display_units",
     "fold_names",
 ]
 
@@ -233,7 +234,7 @@ def observables(model: Model, obs: Observation, control_value: np.ndarray) -> di
     }
 
 
-def _shown(control: Control) -> tuple[float, str]:
+def display_units(control: Control) -> tuple[float, str]:
     """Scale and unit of the load parameter in files and figures: pressure in kPa (the
     library's MPa × 1000), force and displacement as they are."""
     if control.kind.value == "pressure":
@@ -269,7 +270,7 @@ class _Labelled:
         import xarray as xr
 
         dim = self._dim
-        scale, shown_unit = _shown(self.control)
+        scale, shown_unit = display_units(self.control)
         data: dict[str, Any] = {}
         for name, v in self._variables().items():
             v = np.asarray(v)
@@ -450,7 +451,7 @@ class Path(_Labelled):
 
     def _attrs(self) -> dict[str, Any]:
         s = self.stats
-        scale, unit = _shown(self.control)
+        scale, unit = display_units(self.control)
         attrs = {
             "method": self.method,
             "status": self.status.name,
