@@ -124,3 +124,39 @@ def test_import_help_and_version_load_no_jax():
     env = dict(os.environ, XLA_FLAGS="--xla_cpu_multi_thread_eigen=true")
     out = subprocess.run([sys.executable, "-c", code], env=env, capture_output=True, text=True)
     assert out.returncode == 0, out.stderr[-2000:]
+
+
+_BLAS_PROBE = (
+    "import os, numpy, scipy.linalg\n"
+    "import biplan.assembly\n"
+    "from threadpoolctl import threadpool_info\n"
+    "blas = [i for i in threadpool_info() if i['user_api'] == 'blas']\n"
+    "assert blas, threadpool_info()\n"
+    "print(sorted({i['num_threads'] for i in blas}), os.environ.get('OPENBLAS_NUM_THREADS'))\n"
+)
+
+
+def _probe(**variables: str) -> subprocess.CompletedProcess[str]:
+    from biplan._jax import BLAS_THREAD_VARIABLES
+
+    env = {k: v for k, v in os.environ.items() if k not in BLAS_THREAD_VARIABLES}
+    env.pop("BIPLAN_BLAS_THREADS", None)
+    env.update(variables)
+    return subprocess.run(
+        [sys.executable, "-c", _BLAS_PROBE], env=env, capture_output=True, text=True
+    )
+
+
+def test_blas_runs_on_one_thread_unless_the_user_chose():
+    """The set-up limits every loaded BLAS (NumPy's and SciPy's OpenBLAS) to one thread, or to
+    BIPLAN_BLAS_THREADS; a user's OPENBLAS_NUM_THREADS is kept; a bad value is refused."""
+    default = _probe()
+    assert default.returncode == 0, default.stderr[-2000:]
+    assert default.stdout.split() == ["[1]", "1"]
+    two = _probe(BIPLAN_BLAS_THREADS="2")
+    assert two.stdout.split() == ["[2]", "2"], two.stderr[-2000:]
+    user = _probe(OPENBLAS_NUM_THREADS="2", BIPLAN_BLAS_THREADS="1")
+    assert user.stdout.split() == ["[2]", "2"], user.stderr[-2000:]
+    bad = _probe(BIPLAN_BLAS_THREADS="zero")
+    assert bad.returncode != 0
+    assert "invalid BIPLAN_BLAS_THREADS = 'zero'" in bad.stderr

@@ -19,6 +19,15 @@ here (the kernels are many small matrices, parallelised by batching); set
 hangs or crashes on some batched kernels on Linux x86-64 (jax-ml/jax#39257); the hang seen here
 with the multi-threaded pool already off matches it.
 
+And it runs the BLAS/LAPACK libraries (OpenBLAS of NumPy and SciPy, which jaxlib's CPU
+LAPACK calls also use) on ``$BIPLAN_BLAS_THREADS`` threads (default 1) unless the user set
+``OPENBLAS_NUM_THREADS``, ``OMP_NUM_THREADS``, ``MKL_NUM_THREADS`` or ``BLIS_NUM_THREADS``.
+OpenBLAS's threads spin while they wait: with two processes on two cores (a test run with
+two workers, a Dask cluster, a CLI run beside a notebook) a 505 × 505 LU took 138 ms instead
+of 8 ms, and the 48-module Newton step 15× longer (docs/performance.md, "BLAS threads").
+biplan's matrices are small (n ≤ a few thousand) and its parallelism is across points and
+processes, so one thread each loses little even on an idle machine.
+
 ``BIPLAN_FAST_COMPILE=on`` compiles the large batched kernels that compile long and run little
 (dynamics chunk, path kernel and corrector, Newton pool, batched relaxation and observation,
 band relaxation, design-map lanes) with a cheap pipeline (:data:`CHEAP_PIPELINE`, passed per
@@ -43,6 +52,13 @@ from pathlib import Path
 import jax
 
 _ON = {"on", "1", "true"}
+#: Environment variables by which a user sets the BLAS threads themselves (then left alone).
+BLAS_THREAD_VARIABLES = (
+    "OPENBLAS_NUM_THREADS",
+    "OMP_NUM_THREADS",
+    "MKL_NUM_THREADS",
+    "BLIS_NUM_THREADS",
+)
 
 #: The persistent compilation cache's folder (None: off, not writable, or not configured yet).
 CACHE_DIR: Path | None = None
@@ -64,6 +80,30 @@ def _stamp_unlocked_entries(path: Path) -> None:
             atime.write_bytes(stamp)
 
 
+def _limit_blas_threads() -> int | None:
+    """Run BLAS on ``$BIPLAN_BLAS_THREADS`` threads (default 1) unless the user chose (module
+    docstring). Libraries already loaded are limited through ``threadpoolctl``; those loaded
+    later (and child processes) read the environment variables set here. Returns the limit
+    applied (None: the user's setting is kept)."""
+    if any(os.environ.get(v) for v in BLAS_THREAD_VARIABLES):
+        return None
+    from biplan._errors import ConfigError
+
+    raw = os.environ.get("BIPLAN_BLAS_THREADS", "1")
+    try:
+        threads = int(raw)
+    except ValueError:
+        threads = 0
+    if threads < 1:
+        raise ConfigError("BIPLAN_BLAS_THREADS", raw, "a whole number of threads ≥ 1")
+    for variable in BLAS_THREAD_VARIABLES[:1] + BLAS_THREAD_VARIABLES[2:]:
+        os.environ[variable] = str(threads)
+    from threadpoolctl import threadpool_limits
+
+    threadpool_limits(limits=threads, user_api="blas")
+    return threads
+
+
 def configure() -> None:
     """Apply biplan's JAX set-up, once per process: the only place biplan sets global state.
 
@@ -74,6 +114,7 @@ def configure() -> None:
     * extends ``XLA_FLAGS`` with the two flags of the module docstring (a flag the user set
       is kept, never overwritten; XLA reads them when JAX starts its CPU backend, so they
       apply if no JAX computation ran before);
+    * limits the BLAS threads (module docstring; ``BIPLAN_BLAS_THREADS``, default 1);
     * turns on float64 (``jax_enable_x64``): every biplan energy is float64;
     * points JAX's persistent compilation cache at ``$BIPLAN_JAX_CACHE`` (default
       ``~/.cache/biplan/jax``; ``off`` disables it), unless the user configured a cache
@@ -91,6 +132,7 @@ def configure() -> None:
         if flag.split("=")[0].removeprefix("--") not in flags:
             flags += " " + flag
     os.environ["XLA_FLAGS"] = flags.strip()
+    _limit_blas_threads()
     jax.config.update("jax_enable_x64", True)
     cache = os.environ.get("BIPLAN_JAX_CACHE", str(Path.home() / ".cache" / "biplan" / "jax"))
     if cache.lower() in {"", "0", "off", "none"} or getattr(

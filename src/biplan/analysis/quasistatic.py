@@ -33,13 +33,24 @@ KICK = 0.1
 SUB_STEPS = 20
 #: Residual ‖r‖∞ [N, mm] below which an unconverged proximal sub-problem moves the anchor.
 SUB_TOLERANCE = 1e-6
+#: Step halvings of a proximal sub-problem's line search before Levenberg–Marquardt.
+SUB_BACKTRACKS = 8
 
 
 def inexact_newton(solver: Newton, sub_steps: int = SUB_STEPS) -> Newton:
-    """The Newton of a proximal sub-problem: ``solver`` with at most ``sub_steps`` iterations
-    and no contact restart (:func:`relax`, and the departure stepper's descent: a failed
-    sub-problem stiffens the anchor spring instead)."""
-    return replace(solver, max_steps=min(solver.max_steps, sub_steps), contact_restart=False)
+    """The Newton of a proximal sub-problem: ``solver`` with at most ``sub_steps`` iterations,
+    at most :data:`SUB_BACKTRACKS` step halvings and no contact restart (:func:`relax`, and
+    the departure stepper's descent: a failed sub-problem stiffens the anchor spring instead).
+
+    A sub-problem that is not convex enough fails fast: with the full line search (30
+    halvings, then Levenberg–Marquardt until its damping passes 1e12) one failure cost up to
+    ``sub_steps`` × 31 Jacobians, 80–120 s at 48 modules (docs/performance.md)."""
+    return replace(
+        solver,
+        max_steps=min(solver.max_steps, sub_steps),
+        max_backtracks=min(solver.max_backtracks, SUB_BACKTRACKS),
+        contact_restart=False,
+    )
 
 
 @dataclass(frozen=True)
