@@ -295,7 +295,8 @@
       api.selected = k;
       slider.value = String(k);
       const i = s.index[k];
-      showShape(shapes, k, s.axis + " " + fmt(s.axis_value[k], 4), [
+      const title = s.axis === "time" ? "t = " + fmt(s.axis_value[k], 4) + " s" : "step " + i;
+      showShape(shapes, k, title, [
         [data.load_name, fmt(s.load[k])],
         ["load-point displacement U [mm]", fmt(s.displacement[k])],
         ["u_z, u_r [mm]", fmt(s.u_z[k]) + ", " + fmt(s.u_r[k])],

@@ -97,7 +97,7 @@ def response_page(dataset: Any, model: Model, *, source: str = "") -> Page:
     axis_value = np.asarray(dataset[dim].values, dtype=float)[index]
     steps = {
         "index": index.tolist(),
-        "axis": "t [s] =" if dim == "time" else "step",
+        "axis": dim,
         "axis_value": axis_value.tolist(),
         "load": _values(dataset, load_var, index),
         "displacement": _values(dataset, "displacement", index),
