@@ -10,6 +10,7 @@ title; a pathway is highlighted) and a screenshot that is not blank.
 from __future__ import annotations
 
 import io
+import itertools
 import shutil
 import warnings
 from collections.abc import Iterator
@@ -65,9 +66,11 @@ def _open(browser: Any, file: Path) -> tuple[Any, list[str]]:
     page.on("pageerror", lambda e: errors.append(f"page error: {e}"))
     page.on(
         "console",
-        lambda m: errors.append(m.text)
-        if m.type == "error" and not any(h in m.text for h in HARMLESS)
-        else None,
+        lambda m: (
+            errors.append(m.text)
+            if m.type == "error" and not any(h in m.text for h in HARMLESS)
+            else None
+        ),
     )
     page.goto(file.as_uri())
     page.wait_for_selector("body[data-ready=true]", timeout=120_000)
@@ -117,11 +120,12 @@ def test_catalogue_page(browser: Any, catalogue_html: Path, model4: biplan.Model
     # clicking a state node selects it: the shape panel's title is its label
     k = names.index("1B")
     _click_point(page, "graph", *pos[k])
-    page.wait_for_function("biplanExplorer.selected === %d" % k)
+    page.wait_for_function(f"biplanExplorer.selected === {k}")
     assert page.inner_text("#shape-title") == "state 1B"
 
     # the tube drawn is the surface mesh of `biplan plot --kind tube`
-    drawn = np.asarray(page.evaluate("biplanExplorer.tubePoints(biplanExplorer.data.shapes, %d)" % k))
+    script = f"biplanExplorer.tubePoints(biplanExplorer.data.shapes, {k})"
+    drawn = np.asarray(page.evaluate(script))
     q = xr.load_dataset(STATES)["q"].values[k]
     expected = surface.surface(
         np.asarray(model4.global_nodes(q)),
@@ -139,12 +143,13 @@ def test_catalogue_page(browser: Any, catalogue_html: Path, model4: biplan.Model
     graph = nx.read_graphml(STATES.parent / "transitions.graphml")
     expected_path = pathway(graph, "2A", "66")
     assert shown[0] == "2A" and shown[-1] == "66" and len(shown) == len(expected_path)
-    assert all(graph.has_edge(a, b) for a, b in zip(shown, shown[1:], strict=False))
+    assert all(graph.has_edge(a, b) for a, b in itertools.pairwise(shown))
     trace = page.evaluate("biplanExplorer.data.traces.graph.path")
     xs = page.evaluate(f"document.getElementById('graph').data[{trace}].x")
     assert np.allclose(xs, [pos[names.index(n)][0] for n in shown])
     trace3 = page.evaluate("biplanExplorer.data.traces.endpoint.path")
-    assert page.evaluate(f"document.getElementById('endpoint').data[{trace3}].x.length") == len(shown)
+    drawn3 = page.evaluate(f"document.getElementById('endpoint').data[{trace3}].x.length")
+    assert drawn3 == len(shown)
     assert page.inner_text("#shape-title") == "state 2A"
     page.click("#path-next")
     assert page.inner_text("#shape-title") == f"state {shown[1]}"
@@ -174,5 +179,38 @@ def test_response_page(browser: Any, model4: biplan.Model, tmp_path: Path) -> No
     page.dispatch_event("#step-slider", "input")
     assert page.inner_text("#shape-title") == "step 3"
     _not_blank(page.screenshot(full_page=True))
+    assert errors == []
+    page.close()
+
+
+def test_least_barrier_pathway(browser: Any, tmp_path: Path) -> None:
+    """With barriers on the edges (transitions.graphml beside the catalogue), the pathway
+    "by least total barrier" climbs as little in total as networkx's."""
+    from biplan.analysis.transitions import barrier_weight, pathway
+
+    graph = nx.read_graphml(STATES.parent / "transitions.graphml")
+    rng = np.random.default_rng(7)
+    for u, v, d in graph.edges(data=True):
+        top = max(graph.nodes[u]["energy"], graph.nodes[v]["energy"])
+        d["saddle_energy"] = float(top + rng.uniform(0.05, 2.0))
+    folder = tmp_path / "states"
+    folder.mkdir()
+    shutil.copyfile(STATES, folder / "states.nc")
+    nx.write_graphml(graph, folder / "transitions.graphml")
+    out = tmp_path / "barriers.html"
+    with pytest.raises(SystemExit) as exc:
+        main(["explore", str(folder / "states.nc"), "--out", str(out), "--quiet"])
+    assert exc.value.code in (0, None)
+    page, errors = _open(browser, out)
+    page.evaluate("biplanExplorer.showPathway('2A', '66', 'barrier')")
+    shown = page.evaluate("biplanExplorer.pathway")
+
+    def climbed(path: list[str]) -> float:
+        steps = itertools.pairwise(path)
+        return sum(barrier_weight(a, b, graph.edges[a, b], graph) for a, b in steps)
+
+    best = pathway(graph, "2A", "66", weight="barrier")
+    assert shown[0] == "2A" and shown[-1] == "66"
+    assert climbed(shown) == pytest.approx(climbed(best), rel=1e-9)
     assert errors == []
     page.close()

@@ -155,9 +155,9 @@ def explore(
             show_default=False,
         ),
     ],
-    out: Annotated[
-        Path, typer.Option("--out", "-o", help="The page to write (.html).")
-    ] = Path("explorer.html"),
+    out: Annotated[Path, typer.Option("--out", "-o", help="The page to write (.html).")] = Path(
+        "explorer.html"
+    ),
     quiet: Annotated[bool, typer.Option("--quiet", "-q", help="No summary.")] = False,
 ) -> None:
     """Write an interactive page of a result (one self-contained HTML file, works offline)."""

@@ -41,12 +41,12 @@ from biplan.geometry.tube import TubeLayout
 __all__ = [
     "DEFAULT_SUBDIVISIONS",
     "ELEMENT_POLYGONS",
-    "rigid_fit",
     "Reconstruction",
     "Surface",
     "clip_polygon",
     "element_strips",
     "reconstruct",
+    "rigid_fit",
     "surface",
 ]
 

@@ -171,6 +171,7 @@ def _endpoint_figure(states: dict[str, Any], theta_max: float) -> tuple[Any, dic
     return fig, {"path": path, "selected": selected}
 
 
+GRAPH_NOTE = "states by number of open folds; click a state to select it"
 _CONTROLS = (
     '<section class="panel wide controls" id="panel-pathway"><h2>Pathway</h2>'
     '<label>from <select id="path-from"></select></label> '
@@ -219,8 +220,7 @@ def catalogue_page(dataset: Any, model: Model, graph: nx.Graph, *, source: str =
         [
             _CONTROLS,
             '<div class="row">',
-            panel("graph", "Transition graph", note="states by number of open folds; "
-                  "click a state to select it"),  # fmt: skip
+            panel("graph", "Transition graph", note=GRAPH_NOTE),
             panel("endpoint", "Endpoint space", note="drag to rotate; click a state"),
             "</div>",
             shape_panels(),

@@ -111,7 +111,7 @@
     margin: { l: 0, r: 0, t: 0, b: 0 }, uirevision: "tube", showlegend: false,
     scene: {
       aspectmode: "data",
-      camera: { eye: { x: 1.3, y: -1.3, z: 0.5 }, projection: { type: "orthographic" } },
+      camera: { eye: { x: 2.4, y: -2.4, z: 0.9 }, projection: { type: "orthographic" } },
       xaxis: { title: { text: "x [mm]" } }, yaxis: { title: { text: "y [mm]" } },
       zaxis: { title: { text: "z [mm]" } },
     },

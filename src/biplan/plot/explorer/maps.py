@@ -55,7 +55,7 @@ def _heatmap(dataset: Any, variable: str, cell_index: np.ndarray, star: tuple) -
     fig.add_scatter(x=[star[0]], y=[star[1]], mode="markers", name="swept design",
                     marker={"symbol": "star", "size": 16, "color": "white",
                             "line": {"color": "black", "width": 1}},
-                    hovertemplate="swept design b = %{x:.3g}, C = %{y:.3g}<extra></extra>")  # fmt: skip
+                    hovertemplate="swept design<extra></extra>")  # fmt: skip
     fig.add_scatter(x=[], y=[], mode="markers", name="selected", hoverinfo="skip",
                     marker={"symbol": "square-open", "size": 18, "color": "#D55E00",
                             "line": {"width": 3}})  # fmt: skip

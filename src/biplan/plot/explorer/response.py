@@ -72,12 +72,15 @@ def response_page(dataset: Any, model: Model, *, source: str = "") -> Page:
     load = np.asarray(dataset[load_var].values, dtype=float)
     u = np.asarray(dataset["displacement"].values, dtype=float)
     stable = (
-        np.asarray(dataset["stable"].values, dtype=bool) if "stable" in dataset else np.ones(n, bool)
+        np.asarray(dataset["stable"].values, dtype=bool)
+        if "stable" in dataset
+        else np.ones(n, bool)
     )
     fig = go.Figure()
     fig.add_scatter(x=u, y=load, mode="lines", line={"color": "#999999", "width": 1},
                     hoverinfo="skip", name="all saved steps")  # fmt: skip
-    for flag, color, name in ((True, STABLE_COLOR, "stable"), (False, UNSTABLE_COLOR, "unstable")):
+    styles = ((True, STABLE_COLOR, "stable"), (False, UNSTABLE_COLOR, "unstable"))
+    for flag, color, name in styles:
         pick = np.flatnonzero(stable[index] == flag)
         if pick.size:
             fig.add_scatter(x=u[index[pick]], y=load[index[pick]], customdata=pick,
