@@ -23,7 +23,7 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
-from biplan.geometry import foldlines, surface
+from biplan.geometry import chain, foldlines, surface
 
 if TYPE_CHECKING:
     from biplan.assembly import Model
@@ -92,8 +92,8 @@ def _laws(model: Model) -> list[Any]:
     return [*model.tube.helical_laws, *model.tube.circular_laws]
 
 
-def _folds(model: Model, q: np.ndarray) -> np.ndarray:
-    lines = foldlines.fold_lines(model.layout, model.params.geometry, model.kinematics(q))
+def _folds(model: Model, kin: chain.Kinematics) -> np.ndarray:
+    lines = foldlines.fold_lines(model.layout, model.params.geometry, kin)
     laws = _laws(model)
     branch = np.array(
         [
@@ -106,8 +106,8 @@ def _folds(model: Model, q: np.ndarray) -> np.ndarray:
     return np.column_stack([lines.start, lines.end, branch])
 
 
-def _motions(model: Model, q: np.ndarray, reference: np.ndarray) -> np.ndarray:
-    nodes = np.asarray(model.global_nodes(q))
+def _motions(kin: chain.Kinematics, reference: np.ndarray) -> np.ndarray:
+    nodes = np.asarray(chain.global_nodes(kin))
     rows = []
     for n in range(len(nodes)):
         for idx in surface.ELEMENT_POLYGONS:
@@ -149,8 +149,9 @@ def shape_set(
     motions, folds = [], []
     for q in np.atleast_2d(np.asarray(qs, dtype=float)):
         q = q if np.all(np.isfinite(q)) else np.zeros_like(q)
-        motions.append(_motions(model, q, reference))
-        folds.append(_folds(model, q))
+        kin = model.kinematics(q)
+        motions.append(_motions(kin, reference))
+        folds.append(_folds(model, kin))
     return ShapeSet(
         radius=float(mesh.radius),
         plane=mesh.plane,
