@@ -110,8 +110,8 @@
   const tubeLayout = {
     margin: { l: 0, r: 0, t: 0, b: 0 }, uirevision: "tube", showlegend: false,
     scene: {
-      aspectmode: "data",
-      camera: { eye: { x: 2.4, y: -2.4, z: 0.9 }, projection: { type: "orthographic" } },
+      aspectmode: "manual", aspectratio: { x: 0.3, y: 0.3, z: 1 },
+      camera: { eye: { x: 0.85, y: -0.85, z: 0.3 }, projection: { type: "orthographic" } },
       xaxis: { title: { text: "x [mm]" } }, yaxis: { title: { text: "y [mm]" } },
       zaxis: { title: { text: "z [mm]" } },
     },
@@ -131,6 +131,11 @@
     $("shape-title").textContent = title;
     $("shape-info").innerHTML = "<table>" + rows.map(
       (r) => "<tr><td>" + r[0] + "</td><td>" + r[1] + "</td></tr>").join("") + "</table>";
+    if (S) {  // true proportions: the tall axis fills the panel
+      const z = moved(S, k).z, height = Math.max(...z) - Math.min(0, ...z);
+      const r = Math.min(1, (2.1 * S.radius) / Math.max(height, 1e-9));
+      tubeLayout.scene.aspectratio = { x: r, y: r, z: 1 };
+    }
     Plotly.react("tube", S ? tubeTraces(S, k) : [], tubeLayout, config);
     Plotly.react("development", S ? developmentTraces(S, k) : [], developmentLayout, config);
   }
