@@ -18,6 +18,7 @@ demo: $(STAMP)
 	$(BIN)/biplan demo --out out
 
 test: $(STAMP)
+	bash scripts/install_browser.sh
 	$(BIN)/python -m pytest -q -n 2 --dist loadfile --durations=25
 
 lint: $(STAMP)

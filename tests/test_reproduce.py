@@ -47,6 +47,9 @@ DATA_FILES = (
     "states/hierarchy.nc",
     "cft_calibration.csv",
     "ramp.nc",
+    "explorer.html",
+    "explorer_design_map.html",
+    "explorer_ramp.html",
 )
 PNG = b"\x89PNG\r\n\x1a\n"
 

@@ -25,7 +25,7 @@ batched kernel; the test-suite checks that both agree.
 from __future__ import annotations
 
 import functools
-from collections.abc import Mapping, Sequence
+from collections.abc import Iterator, Mapping, Sequence
 from dataclasses import dataclass
 from typing import Any
 
@@ -50,7 +50,7 @@ from biplan.geometry import Tube, chain
 from biplan.solvers.newton import Newton, Status, newton_loop, solve_equilibrium
 from biplan.solvers.observe import kkt_min_eigenvalue, observe_batch
 
-__all__ = ["ForceRamp", "ResponseEvaluator", "response_point", "stack_params"]
+__all__ = ["ForceRamp", "ResponseEvaluator", "ramp_batches", "response_point", "stack_params"]
 
 Array = Any
 
@@ -373,32 +373,54 @@ class ResponseEvaluator:
         """Batched ramp of ``tubes``: one compiled call per layout, padded to ``batch``."""
         n = len(tubes)
         out: dict[str, np.ndarray] | None = None
-        groups: dict[Any, list[int]] = {}
-        for i, t in enumerate(tubes):
-            groups.setdefault(t.layout, []).append(i)
-        forces = jnp.asarray(self.ramp.forces)
-        settings = self.ramp.newton().settings()
-        for layout, which in groups.items():
-            models = [Model(tubes[i]) for i in which]
-            z0 = jnp.asarray(models[0].pack(models[0].zeros()))
-            for lo in range(0, len(which), batch):
-                part = which[lo : lo + batch]
-                params = stack_params(models[lo : lo + batch], batch)
-                kernel = _kernel(layout, self.ramp.free_steps)
-                z_last, rec = kernel(params, z0, forces, settings)
-                ok, bad, uz, ur, zp, lam = (np.asarray(r)[: len(part)] for r in rec)
-                l0 = np.asarray([tubes[i].initial_length for i in part])
-                res = _summarise(self.ramp, ok, bad, uz, ur, zp, lam, l0)
-                z_last = np.asarray(z_last)
-                for row in range(len(part)):
-                    _finish_after_snap(self.ramp, models[lo + row], ok[row], lam[row],
-                                       z_last[row], res, row)  # fmt: skip
-                if out is None:
-                    out = {k: np.empty((n, *v.shape[1:]), v.dtype) for k, v in res.items()}
-                for k, v in res.items():
-                    out[k][part] = v
+        for part, models, (ok, bad, uz, ur, zp, lam), z_last in ramp_batches(
+            tubes, self.ramp, batch
+        ):
+            l0 = np.asarray([tubes[i].initial_length for i in part])
+            res = _summarise(self.ramp, ok, bad, uz, ur, zp, lam, l0)
+            for row in range(len(part)):
+                _finish_after_snap(self.ramp, models[row], ok[row], lam[row], z_last[row], res,
+                                   row)  # fmt: skip
+            if out is None:
+                out = {k: np.empty((n, *v.shape[1:]), v.dtype) for k, v in res.items()}
+            for k, v in res.items():
+                out[k][part] = v
         assert out is not None
         return out
+
+
+def ramp_batches(
+    tubes: Sequence[Tube], ramp: ForceRamp, batch: int
+) -> Iterator[tuple[list[int], list[Model], tuple[np.ndarray, ...], np.ndarray]]:
+    """The quasi-static ramp of ``tubes`` in batched kernel calls (one compilation per layout,
+    every call padded to ``batch`` designs).
+
+    Yields
+    ------
+    part : list of int
+        Indices into ``tubes`` of this call's designs.
+    models : list of Model
+        Their models.
+    records : tuple of ndarray, each (len(part), n_steps + 1)
+        Per design and load step: converged, the failing status (−1 none), u_z, u_r [mm], the
+        load-point displacement [mm] and λ_min of the reduced Hessian.
+    z_last : ndarray, shape (len(part), n_z)
+        The last converged packed state of each design.
+    """
+    groups: dict[Any, list[int]] = {}
+    for i, t in enumerate(tubes):
+        groups.setdefault(t.layout, []).append(i)
+    forces = jnp.asarray(ramp.forces)
+    settings = ramp.newton().settings()
+    for layout, which in groups.items():
+        models = [Model(tubes[i]) for i in which]
+        z0 = jnp.asarray(models[0].pack(models[0].zeros()))
+        for lo in range(0, len(which), batch):
+            part = which[lo : lo + batch]
+            params = stack_params(models[lo : lo + batch], batch)
+            z_last, rec = _kernel(layout, ramp.free_steps)(params, z0, forces, settings)
+            records = tuple(np.asarray(r)[: len(part)] for r in rec)
+            yield part, models[lo : lo + batch], records, np.asarray(z_last)[: len(part)]
 
 
 @functools.lru_cache(maxsize=16)

@@ -17,7 +17,17 @@ from rich.console import Console
 from rich.markup import escape
 
 from biplan._errors import BiplanError, BiplanWarning
-from biplan.cli import calibrate, demo, maps, plot, reproduce, respond, states, validate
+from biplan.cli import (
+    calibrate,
+    demo,
+    explore,
+    maps,
+    plot,
+    reproduce,
+    respond,
+    states,
+    validate,
+)
 
 __all__ = ["EXIT_BIPLAN_ERROR", "app", "main"]
 
@@ -35,6 +45,7 @@ app.command("demo")(demo.demo)
 app.add_typer(calibrate.app, name="calibrate")
 app.command("validate")(validate.validate)
 app.command("plot")(plot.plot)
+app.command("explore")(explore.explore)
 app.command("respond")(respond.respond)
 app.command("states")(states.states)
 app.command("path")(states.path)

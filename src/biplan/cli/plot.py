@@ -51,7 +51,6 @@ __all__ = ["Kind", "kinds_for", "plot", "suffixes"]
 
 #: Resolution of static figures [dots per inch].
 DPI = 300
-SERIES_KINDS = ("path", "trajectory")
 
 
 class Kind(enum.StrEnum):
@@ -99,37 +98,27 @@ def _model(dataset: Any) -> Model:
 
 
 def kinds_for(dataset: Any) -> tuple[Kind, ...]:
-    """The kinds that apply to a result dataset (by its ``kind`` attribute): every kind for a
-    path, trajectory or stable-branch sweep; development, tube and gallery for a state
-    catalogue; none for anything else (a map, a hierarchy)."""
-    from biplan.analysis.quasistatic import SWEEP_KIND
+    """The kinds that apply to a result dataset (:func:`~biplan.io.results.result_kind`):
+    every kind for a path, trajectory or stable-branch sweep; development, tube and gallery for
+    a state catalogue; none for anything else (a map, a hierarchy)."""
+    from biplan.io.results import ResultKind, result_kind
 
-    found = dataset.attrs.get("kind")
-    if found in (*SERIES_KINDS, SWEEP_KIND):
+    found = result_kind(dataset)
+    if found in (ResultKind.path, ResultKind.trajectory, ResultKind.sweep):
         return tuple(k for k in Kind if k is not Kind.gallery)
-    if found == "states":
+    if found is ResultKind.states:
         return (Kind.development, Kind.tube, Kind.gallery)
     return ()
 
 
-def _what(dataset: Any) -> str:
-    """What a result file is, in words."""
-    found = dataset.attrs.get("kind")
-    if found == "states":
-        return "a state catalogue"
-    if found:
-        return f"a {found} result"
-    if "quantity" in dataset.attrs:  # a map (biplan map design|stability)
-        return f"a map ({dataset.attrs['quantity']})"
-    return "a file without a result kind"
-
-
 def _check_kind(dataset: Any, kind: Kind, file: Path) -> None:
     """Refuse a ``--kind`` that does not apply to ``dataset``, naming those that do."""
+    from biplan.io.results import describe_result
+
     kinds = kinds_for(dataset)
     if kind in kinds:
         return
-    what = f"{_what(dataset)} ({file})"
+    what = f"{describe_result(dataset)} ({file})"
     if kinds:
         valid = f"one of {', '.join(k.value for k in kinds)} for {what}"
     elif "quantity" in dataset.attrs:

@@ -22,6 +22,9 @@ and the command goes on):
   table's laws: ``si_cft_calibration.png``, ``cft_calibration.csv``;
 * ``movie`` — the Movie S1 analogue, the paper's force ramp (0.8 N/s, 2 s, generalized-α):
   ``ramp.nc``, ``movie_S1.mp4`` (``.gif`` when ffmpeg is unavailable).
+* ``explorer`` — the interactive pages of ``biplan explore`` beside the figures:
+  ``explorer.html`` (the state catalogue), ``explorer_design_map.html`` and
+  ``explorer_ramp.html`` (each written where its stage's result exists).
 
 Then ``REPRODUCTION.md``: every claim of :data:`biplan.io.reproduction.CLAIMS` with our value,
 a computed verdict and the reason, one table per figure, linking the figures.
@@ -486,6 +489,31 @@ def _stage_movie(ctx: _Context) -> None:
     )
 
 
+#: Explorer pages written beside the figures: file → the result it explores (in --out).
+EXPLORER_PAGES = {
+    "explorer.html": "states/states.nc",
+    "explorer_design_map.html": "design_map/map.nc",
+    "explorer_ramp.html": "ramp.nc",
+}
+
+
+def _stage_explorer(ctx: _Context) -> None:
+    """The interactive pages of ``biplan explore`` of the catalogue, the design map and the
+    ramp, each where its stage wrote its result."""
+    from biplan.cli.explore import explorer_page, read_explorable
+    from biplan.plot.explorer import write_page
+
+    missing = []
+    for name, source in EXPLORER_PAGES.items():
+        file = ctx.out / source
+        if not file.is_file():
+            missing.append(source)
+            continue
+        write_page(explorer_page(read_explorable(file), file), ctx.out / name)
+    if missing:
+        raise FileNotFoundError(f"no explorer page of {', '.join(missing)} (its stage failed)")
+
+
 #: Stages in order: name → (description, function).
 STAGES: dict[str, tuple[str, Callable[[_Context], None]]] = {
     "semi": ("semi-bistable sweep and snapshots (Fig. 3 B)", _stage_semi),
@@ -495,6 +523,7 @@ STAGES: dict[str, tuple[str, Callable[[_Context], None]]] = {
     "states": ("fully bistable states and transitions (Fig. 4)", _stage_states),
     "calibration": ("CFT calibration (SI)", _stage_calibration),
     "movie": ("force ramp and Movie S1", _stage_movie),
+    "explorer": ("interactive explorer pages (biplan explore)", _stage_explorer),
 }
 
 

@@ -46,6 +46,7 @@ __all__ = [
     "clip_polygon",
     "element_strips",
     "reconstruct",
+    "rigid_fit",
     "surface",
 ]
 
@@ -86,7 +87,7 @@ def element_strips(corners: np.ndarray, width: float) -> list[np.ndarray]:
     return strips
 
 
-def _rigid_fit(reference: np.ndarray, deformed: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+def rigid_fit(reference: np.ndarray, deformed: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """Rotation (2, 2) and translation (2,) with deformed ≈ reference @ rotᵀ + t (2D Procrustes)."""
     c0, c1 = reference.mean(axis=0), deformed.mean(axis=0)
     a, b = reference - c0, deformed - c1
@@ -200,7 +201,7 @@ def surface(
     for n in range(len(nodes)):
         for k, idx in enumerate(polygons):
             corners0, corners = ref[n, list(idx)], nodes[n, list(idx)]
-            rot, shift = _rigid_fit(corners0, corners)
+            rot, shift = rigid_fit(corners0, corners)
             strips = element_strips(corners0, width)
             flat = np.concatenate(strips)
             key = np.round(flat / (1e-9 * width)).astype(np.int64)

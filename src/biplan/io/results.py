@@ -7,12 +7,15 @@
   scalar observables; units in the header comment line);
 * :func:`load_result` and :func:`model_of` — read a netCDF result and rebuild its model;
 * :func:`sweep_dataset`, :func:`save_sweep_csv` — the same for a stable-branch displacement
-  sweep (:func:`~biplan.analysis.quasistatic.displacement_sweep`).
+  sweep (:func:`~biplan.analysis.quasistatic.displacement_sweep`);
+* :func:`result_kind` and :func:`describe_result` — what a result file is (a path, trajectory,
+  sweep, state catalogue, design or stability map), read from its attributes.
 """
 
 from __future__ import annotations
 
 import csv
+import enum
 from pathlib import Path as FilePath
 from typing import Any
 
@@ -28,9 +31,12 @@ __all__ = [
     "CSV_COLUMNS",
     "SWEEP_COLUMNS",
     "SWEEP_CSV_COLUMNS",
+    "ResultKind",
     "dataset",
+    "describe_result",
     "load_result",
     "model_of",
+    "result_kind",
     "save",
     "save_csv",
     "save_netcdf",
@@ -224,3 +230,48 @@ def save_sweep_csv(path: QuasiStaticPath, file: str | FilePath) -> FilePath:
                 + [int(bool(path.stable[k])), path.status[k].name, int(bool(path.switched[k]))]
             )
     return out
+
+
+class ResultKind(enum.StrEnum):
+    """What a result file holds (:func:`result_kind`)."""
+
+    path = "path"
+    trajectory = "trajectory"
+    sweep = SWEEP_KIND
+    states = "states"
+    design_map = "design map"
+    stability_map = "stability map"
+    unknown = "unknown"
+
+
+#: ``quantity`` attribute of a map → its kind (``biplan map design|stability``).
+_MAP_KINDS = {
+    "force_ramp_response": ResultKind.design_map,
+    "stability_count": ResultKind.stability_map,
+}
+
+
+def result_kind(ds: Any) -> ResultKind:
+    """The kind of a result dataset, from its ``kind`` attribute (paths, trajectories, sweeps,
+    state catalogues) or, for a map, its ``quantity`` attribute; ``unknown`` otherwise."""
+    found = ds.attrs.get("kind")
+    if found is not None:
+        try:
+            return ResultKind(str(found))
+        except ValueError:
+            return ResultKind.unknown
+    return _MAP_KINDS.get(str(ds.attrs.get("quantity")), ResultKind.unknown)
+
+
+def describe_result(ds: Any) -> str:
+    """What a result dataset is, in words (``"a state catalogue"``, ``"a path result"``,
+    ``"a map (stability_count)"``…)."""
+    kind = result_kind(ds)
+    if kind is ResultKind.states:
+        return "a state catalogue"
+    found = ds.attrs.get("kind")
+    if found:
+        return f"a {found} result"
+    if "quantity" in ds.attrs:
+        return f"a map ({ds.attrs['quantity']})"
+    return "a file without a result kind"
