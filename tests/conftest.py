@@ -67,6 +67,14 @@ def _bounded_compiled_kernels():
     release_compiled_kernels(0.5)
 
 
+@pytest.fixture(scope="module")
+def browser():
+    """A headless Chromium driven by Playwright (tests/_browser.py), or a loud skip."""
+    from _browser import launch
+
+    yield from launch()
+
+
 @pytest.fixture
 def rng() -> np.random.Generator:
     """A seeded generator (the suite must be deterministic)."""

@@ -8,6 +8,7 @@ from __future__ import annotations
 
 import json
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 import pytest
@@ -117,3 +118,30 @@ def test_stability_map_cli(tmp_path: Path) -> None:
     assert np.isfinite(n).all() and (n >= 1).all()
     assert _run(["map", "plot", str(out)]) == 0
     assert (out / "stability.png").read_bytes()[:8] == PNG_SIGNATURE
+
+
+def test_design_map_explorer_page(browser: Any, design_dir: Path, tmp_path: Path) -> None:
+    """`biplan explore map.nc` in headless Chromium: heatmaps, curve and shape panels, no
+    console error; clicking a cell selects that design (title, ramp curve); not blank."""
+    from _browser import click_point, not_blank, open_page
+
+    out = tmp_path / "map.html"
+    assert _run(["explore", str(design_dir / "map.nc"), "--out", str(out), "--quiet"]) == 0
+    page, errors = open_page(browser, out)
+    for div in ("map-u_z", "map-u_r", "curve", "tube", "development"):
+        assert page.locator(f"#{div} .main-svg").count() > 0, div
+    cells = page.evaluate("biplanExplorer.data.cells")
+    assert len(cells) == 4
+    target = next(i for i, c in enumerate(cells) if i != page.evaluate("biplanExplorer.selected"))
+    click_point(page, "map-u_z", cells[target]["b"], cells[target]["C"])
+    page.wait_for_function(f"biplanExplorer.selected === {target}")
+    b, c = (  # JavaScript's toPrecision(3)
+        f"{v:.{max(2 - int(np.floor(np.log10(abs(v)))), 0)}f}"
+        for v in (cells[target]["b"], cells[target]["C"])
+    )
+    assert page.inner_text("#shape-title") == f"b = {b}, C = {c}"
+    curve = page.evaluate("document.getElementById('curve').data[0].y")
+    assert curve == pytest.approx(cells[target]["force"])
+    not_blank(page.screenshot(full_page=True))
+    assert errors == []
+    page.close()

@@ -9,11 +9,8 @@ title; a pathway is highlighted) and a screenshot that is not blank.
 
 from __future__ import annotations
 
-import io
 import itertools
 import shutil
-import warnings
-from collections.abc import Iterator
 from pathlib import Path
 from typing import Any
 
@@ -23,79 +20,13 @@ import pytest
 import xarray as xr
 
 import biplan
+from _browser import click_point, not_blank, open_page
 from biplan.cli.main import main
 from biplan.geometry import surface
 from biplan.plot.explorer.shapes import SUBDIVISIONS
 
 DATA = Path(__file__).resolve().parent / "data"
 STATES = DATA / "states4" / "states.nc"
-BROWSERS = ("chromium", "chromium-browser", "google-chrome")
-#: Software WebGL for the 3D panels of a headless browser; no sandbox as root.
-LAUNCH_ARGS = ["--no-sandbox", "--use-angle=swiftshader", "--enable-unsafe-swiftshader"]
-#: Console messages that are not the page's errors (Chromium's notes on software WebGL).
-HARMLESS = ("GPU stall due to ReadPixels", "Automatic fallback to software WebGL")
-
-
-def _skip_loudly(reason: str) -> None:
-    message = f"BROWSER TESTS SKIPPED: {reason} (run scripts/install_browser.sh)"
-    warnings.warn(message, stacklevel=2)
-    pytest.skip(message)
-
-
-@pytest.fixture(scope="module")
-def browser() -> Iterator[Any]:
-    try:
-        from playwright.sync_api import sync_playwright
-    except ImportError:
-        _skip_loudly("the playwright package is not installed (pip install -e '.[test]')")
-    executable = next((shutil.which(b) for b in BROWSERS if shutil.which(b)), None)
-    if executable is None:
-        _skip_loudly("no Chromium on PATH")
-    with sync_playwright() as p:
-        try:
-            chromium = p.chromium.launch(executable_path=executable, args=LAUNCH_ARGS)
-        except Exception as err:
-            _skip_loudly(f"Chromium at {executable} does not start: {err}")
-        yield chromium
-        chromium.close()
-
-
-def _open(browser: Any, file: Path) -> tuple[Any, list[str]]:
-    page = browser.new_page(viewport={"width": 1400, "height": 1400})
-    errors: list[str] = []
-    page.on("pageerror", lambda e: errors.append(f"page error: {e}"))
-    page.on(
-        "console",
-        lambda m: (
-            errors.append(m.text)
-            if m.type == "error" and not any(h in m.text for h in HARMLESS)
-            else None
-        ),
-    )
-    page.goto(file.as_uri())
-    page.wait_for_selector("body[data-ready=true]", timeout=120_000)
-    return page, errors
-
-
-def _not_blank(png: bytes) -> None:
-    import matplotlib.image as mpimg
-
-    pixels = mpimg.imread(io.BytesIO(png), format="png")[..., :3]
-    assert pixels.std() > 0.05
-    assert len(np.unique((pixels * 255).astype(np.uint8).reshape(-1, 3), axis=0)) > 50
-
-
-def _click_point(page: Any, div: str, x: float, y: float) -> None:
-    """Click the data point (x, y) of a 2D Plotly figure, where a user would."""
-    box = page.evaluate(
-        """([div, x, y]) => {
-            const gd = document.getElementById(div), L = gd._fullLayout;
-            const r = gd.getBoundingClientRect();
-            return [r.left + L._size.l + L.xaxis.l2p(x), r.top + L._size.t + L.yaxis.l2p(y)];
-        }""",
-        [div, x, y],
-    )
-    page.mouse.click(*box)
 
 
 @pytest.fixture(scope="module")
@@ -110,7 +41,7 @@ def catalogue_html(tmp_path_factory: pytest.TempPathFactory) -> Path:
 def test_catalogue_page(browser: Any, catalogue_html: Path, model4: biplan.Model) -> None:
     from biplan.analysis.transitions import pathway
 
-    page, errors = _open(browser, catalogue_html)
+    page, errors = open_page(browser, catalogue_html)
     for div in ("graph", "endpoint", "tube", "development"):
         assert page.locator(f"#{div} .main-svg").count() > 0, div
     names = page.evaluate("biplanExplorer.data.states.name")
@@ -119,7 +50,7 @@ def test_catalogue_page(browser: Any, catalogue_html: Path, model4: biplan.Model
 
     # clicking a state node selects it: the shape panel's title is its label
     k = names.index("1B")
-    _click_point(page, "graph", *pos[k])
+    click_point(page, "graph", *pos[k])
     page.wait_for_function(f"biplanExplorer.selected === {k}")
     assert page.inner_text("#shape-title") == "state 1B"
 
@@ -155,8 +86,8 @@ def test_catalogue_page(browser: Any, catalogue_html: Path, model4: biplan.Model
     assert page.inner_text("#shape-title") == f"state {shown[1]}"
     assert "fold" in page.inner_text("#path-text")
 
-    _not_blank(page.screenshot(full_page=True))
-    _not_blank(page.locator("#tube").screenshot())
+    not_blank(page.screenshot(full_page=True))
+    not_blank(page.locator("#tube").screenshot())
     assert errors == []
     page.close()
 
@@ -172,13 +103,13 @@ def test_response_page(browser: Any, model4: biplan.Model, tmp_path: Path) -> No
     with pytest.raises(SystemExit) as exc:
         main(["explore", str(file), "--out", str(out), "--quiet"])
     assert exc.value.code in (0, None)
-    page, errors = _open(browser, out)
+    page, errors = open_page(browser, out)
     assert page.locator("#curve .main-svg").count() > 0
     assert page.inner_text("#shape-title") == "step 11"
     page.fill("#step-slider", "3")
     page.dispatch_event("#step-slider", "input")
     assert page.inner_text("#shape-title") == "step 3"
-    _not_blank(page.screenshot(full_page=True))
+    not_blank(page.screenshot(full_page=True))
     assert errors == []
     page.close()
 
@@ -201,7 +132,7 @@ def test_least_barrier_pathway(browser: Any, tmp_path: Path) -> None:
     with pytest.raises(SystemExit) as exc:
         main(["explore", str(folder / "states.nc"), "--out", str(out), "--quiet"])
     assert exc.value.code in (0, None)
-    page, errors = _open(browser, out)
+    page, errors = open_page(browser, out)
     page.evaluate("biplanExplorer.showPathway('2A', '66', 'barrier')")
     shown = page.evaluate("biplanExplorer.pathway")
 
