@@ -268,7 +268,7 @@ def sweep(
     -------
     xarray.Dataset or None
         Variables of ``quantity`` with dims (*grid axes, …), ``status`` per point, and the
-        settings in the attributes.
+        settings and ``chunk_size`` in the attributes.
     """
     check_grid(design, grid, quantity)
     chunks = chunk_indices(grid, chunk_size)
@@ -293,4 +293,6 @@ def sweep(
             progress(done_points, grid.size)
     if len(results) < len(chunks):
         return None
-    return assemble(design, grid, quantity, chunks, results)
+    ds = assemble(design, grid, quantity, chunks, results)
+    ds.attrs["chunk_size"] = chunk_size  # the batch its kernels were compiled for
+    return ds

@@ -136,8 +136,8 @@ def explorer_page(dataset: Any, file: Path) -> Page:
         design = load_config_text(str(dataset.attrs["config"]), source=str(file))
         designs = map_designs(design, dataset)
         valid = [i for i, t in enumerate(designs) if t is not None]
-        # kernel calls of 4 designs for the smallest maps (the shape the tests compile), else 16
-        batch = 4 if len(valid) <= 4 else 16
+        # kernel calls of the map's own chunk size: the kernel its run compiled (and stored)
+        batch = int(dataset.attrs.get("chunk_size", 16))
         found = ramp_curves([designs[i] for i in valid], map_ramp(dataset), batch)  # type: ignore[misc]
         curves: list[Any] = [None] * len(designs)
         for i, c in zip(valid, found, strict=True):
