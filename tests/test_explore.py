@@ -69,6 +69,21 @@ def test_explore_refuses_an_out_that_is_not_html(
     assert "--out" in line and ".html" in line
 
 
+def test_explore_refuses_an_unreadable_transition_graph(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    """A broken transitions.graphml beside the catalogue is named, not silently dropped."""
+    import shutil
+
+    shutil.copyfile(STATES, tmp_path / "states.nc")
+    graph = tmp_path / "transitions.graphml"
+    graph.write_text("<graphml><broken")
+    out = tmp_path / "page.html"
+    line = _refused(["explore", str(tmp_path / "states.nc"), "--out", str(out)], capsys)
+    assert f"invalid transitions.graphml = '{graph}'" in line and "cannot read it" in line
+    assert not out.exists()
+
+
 def test_page_shapes_are_the_surface_mesh(model4: biplan.Model) -> None:
     """The element motions applied to the reference mesh give the points of the tube surface
     of ``biplan plot --kind tube`` (at the page's decimation)."""

@@ -111,8 +111,14 @@ def _graph(dataset: Any, model: Any, folder: Path) -> Any:
     if stored.is_file():
         try:
             saved = nx.read_graphml(stored)
-        except Exception:  # an unreadable graph only loses the barriers
-            return graph
+        except Exception as err:  # any failure to parse is an unreadable file
+            reason = str(err).splitlines()[0] if str(err) else type(err).__name__
+            raise ConfigError(
+                GRAPH_FILE,
+                str(stored),
+                f"the transition graph `biplan states` writes beside its catalogue (cannot read"
+                f" it: {reason}; move it away to explore the catalogue without barriers)",
+            ) from None
         for u, v, d in saved.edges(data=True):
             if graph.has_edge(u, v) and "saddle_energy" in d:
                 graph.edges[u, v]["saddle_energy"] = float(d["saddle_energy"])
