@@ -145,7 +145,10 @@ def _law_entries(
         return [("stiffness", "N/mm²", row[0], [0, 1, 2])]
     out = [(f"stiffness[{j}]", "N/mm²", row[j], [j]) for j in range(3)]
     if reading is TransitionReading.BRANCH_LENGTHS:  # w1 = l1, w2 = l1 + l2
-        out += [("transitions[0]", "mm", row[3], [3, 4]), ("transitions[1]", "mm", row[4] - row[3], [4])]
+        out += [
+            ("transitions[0]", "mm", row[3], [3, 4]),
+            ("transitions[1]", "mm", row[4] - row[3], [4]),
+        ]
     else:
         out += [("transitions[0]", "mm", row[3], [3]), ("transitions[1]", "mm", row[4], [4])]
     return out
@@ -211,7 +214,7 @@ def design_parameters(
         Parameter("geometry.pitch", "mm", pitch),
         third,
     ]
-    rows = {"helical": np.asarray(model.params.helical), "circular": np.asarray(model.params.circular)}
+    rows = {k: np.asarray(getattr(model.params, k)) for k in ("helical", "circular")}
     sizes = {"helical": len(tube.helical_laws), "circular": len(tube.circular_laws)}
     reading = tube.options.transition_reading
     entries: list[tuple[str, list[int], list[int]]] = []  # (set, folds, columns) per parameter

@@ -39,8 +39,7 @@ from biplan.assembly import Load, Model
 from biplan.solvers.control import Control
 from biplan.solvers.newton import Newton, Solution, solve_equilibrium
 
-__all__ = ["LimitPoint", "limit_point_finite_differences", "limit_point_sensitivity",
-           "locate_limit_point"]  # fmt: skip
+__all__ = ["LimitPoint", "limit_point_sensitivity", "locate_limit_point"]
 
 #: Newton steps of :func:`locate_limit_point`.
 MAX_ITERATIONS = 40
@@ -201,37 +200,4 @@ def limit_point_sensitivity(
         np.asarray([y[1], y[2]]),
         np.stack([df[cols], du[cols]]),
         state,
-    )
-
-
-def limit_point_finite_differences(
-    model: Model,
-    limit: LimitPoint,
-    parameters: tuple[str, ...] | None = None,
-    *,
-    relative_step: float = 1e-5,
-) -> Sensitivity:
-    """dF*/dv and dU*/dv by central finite differences of limit points located again
-    (:func:`locate_limit_point` from ``limit.state``) for each perturbed design: a check."""
-    pset = design_parameters(model, limit.state.load)
-    names = pset.names[:-1] if parameters is None else tuple(parameters)
-    base = pset.values
-    out = np.zeros((2, len(names)))
-    for k, name in enumerate(names):
-        j = pset.index(name)
-        h = relative_step * max(abs(base[j]), 1.0)
-        found = []
-        for sign in (1.0, -1.0):
-            v = base.copy()
-            v[j] += sign * h
-            moved, _ = pset.model_at(model, v)
-            lp = locate_limit_point(moved, limit.state, tolerance=0.0)
-            found.append((lp.force, lp.displacement))
-        out[:, k] = (np.asarray(found[0]) - np.asarray(found[1])) / (2 * h)
-    return Sensitivity(
-        (Observable.LIMIT_FORCE, Observable.LIMIT_DISPLACEMENT),
-        tuple(pset.parameters[pset.index(n)] for n in names),
-        np.asarray([limit.force, limit.displacement]),
-        out,
-        limit.state,
     )

@@ -40,7 +40,7 @@ from typing import Any
 
 import numpy as np
 
-from biplan._errors import ConfigError, ConvergenceError
+from biplan._errors import ConfigError
 from biplan._jax import jax, jnp, kernel_options
 from biplan._kernels import stored_jit
 from biplan.analysis._parameters import (
@@ -53,7 +53,7 @@ from biplan.analysis._parameters import (
 )
 from biplan.analysis.stability import active_contacts, null_space
 from biplan.assembly import Model, TubeLayout, kkt_jacobian, residual, state_data
-from biplan.solvers.newton import Newton, Solution, solve_equilibrium
+from biplan.solvers.newton import Solution
 
 __all__ = [
     "AngleParameter",
@@ -64,8 +64,6 @@ __all__ = [
     "Sensitivity",
     "design_parameters",
     "eigen_weights",
-    "finite_differences",
-    "observe",
     "sensitivity",
     "total_derivatives",
 ]
@@ -211,9 +209,7 @@ def _kernel(layout: TubeLayout, angle: AngleParameter, displacement_control: boo
         d = load.displacement_control
         force = (1.0 - d) * load.force - d * z[-1]
         eig = x @ data.lagrangian_hessian @ x - 2.0 * eta @ (data.constraint_jacobian @ x)
-        return jnp.stack(
-            [e.u_z, e.u_r, e.theta, force, data.energy, data.load_displacement, eig]
-        )
+        return jnp.stack([e.u_z, e.u_r, e.theta, force, data.energy, data.load_displacement, eig])
 
     def res(v: Array, z: Array, maps: Maps) -> Array:
         p, load = load_params(maps, v)
@@ -342,11 +338,11 @@ def sensitivity(
         parameter, λ_min asked of a contact-locked state (no free direction), or a singular
         KKT Jacobian.
     """
-    _check_state(model, state)
+    check_state(model, state)
     disp = state.load.is_displacement_controlled
     if observables is None:
         observables = tuple(o for o in _ROWS if disp or o is not Observable.FORCE)
-    obs = tuple(_observable(o) for o in observables)
+    obs = tuple(observable(o) for o in observables)
     pset = design_parameters(model, state.load, angle=AngleParameter(angle), per_fold=per_fold)
     cols = list(range(len(pset.parameters)))
     if parameters is not None:
@@ -363,7 +359,7 @@ def sensitivity(
     return Sensitivity(obs, tuple(pset.parameters[j] for j in cols), y, dy[:, cols], state)
 
 
-def _observable(o: Observable | str) -> Observable:
+def observable(o: Observable | str) -> Observable:
     try:
         found = Observable(o)
     except ValueError:
@@ -374,82 +370,10 @@ def _observable(o: Observable | str) -> Observable:
     return found  # type: ignore[return-value]
 
 
-def _check_state(model: Model, state: Solution) -> None:
+def check_state(model: Model, state: Solution) -> None:
     if not isinstance(state, Solution):
         raise ConfigError("state", type(state).__name__, "a biplan Solution")
     if state.z.shape != (model.n_unknowns,):
         raise ConfigError("state", state.z.shape, "a Solution of this model")
     if not state.converged:
         raise ConfigError("state", state.status.name, "a converged Solution")
-
-
-def observe(model: Model, state: Solution, observables: tuple[Observable, ...]) -> np.ndarray:
-    """The values of ``observables`` at ``state``, computed from the solution (not the
-    kernel): what :func:`finite_differences` differences."""
-    e = model.endpoint(state.q)
-    found = eigen_weights(model, state) if Observable.MIN_EIGENVALUE in observables else None
-    values = {
-        Observable.U_Z: e.u_z,
-        Observable.U_R: e.u_r,
-        Observable.THETA: e.theta,
-        Observable.FORCE: state.force,
-        Observable.ENERGY: state.energy,
-        Observable.DISPLACEMENT: state.displacement,
-        Observable.MIN_EIGENVALUE: float("inf") if found is None else found[2],
-    }
-    return np.asarray([values[o] for o in observables])
-
-
-def finite_differences(
-    model: Model,
-    state: Solution,
-    observables: tuple[Observable | str, ...] | None = None,
-    parameters: tuple[str, ...] | None = None,
-    *,
-    relative_step: float = 1e-5,
-    solver: Newton | None = None,
-    angle: AngleParameter | str = AngleParameter.HELICAL_ANGLE,
-    per_fold: bool = False,
-) -> Sensitivity:
-    """The derivatives of :func:`sensitivity` by central finite differences of full re-solves
-    (a check and a baseline; two Newton solves per parameter, each from ``state``).
-
-    Parameters
-    ----------
-    relative_step : float
-        Step h = relative_step · max(|p|, 1) [parameter unit].
-    solver : Newton, optional
-        Default ``Newton(atol=1e-13)``.
-
-    Raises
-    ------
-    ConvergenceError
-        If a re-solve fails (it names the parameter and value).
-    """
-    _check_state(model, state)
-    disp = state.load.is_displacement_controlled
-    if observables is None:
-        observables = tuple(o for o in _ROWS if disp or o is not Observable.FORCE)
-    obs = tuple(_observable(o) for o in observables)
-    pset = design_parameters(model, state.load, angle=AngleParameter(angle), per_fold=per_fold)
-    names = pset.names if parameters is None else tuple(parameters)
-    cols = [pset.index(n) for n in names]
-    solver = solver or Newton(atol=1e-13)
-    base = pset.values
-    out = np.zeros((len(obs), len(cols)))
-    for k, j in enumerate(cols):
-        h = relative_step * max(abs(base[j]), 1.0)
-        sides = []
-        for sign in (1.0, -1.0):
-            v = base.copy()
-            v[j] += sign * h
-            moved, load = pset.model_at(model, v)
-            sol = solve_equilibrium(moved, solver, state.z, load)
-            if not sol.converged:
-                raise ConvergenceError(
-                    f"finite-difference re-solve at {pset.names[j]} = {v[j]:.10g}: {sol.message}"
-                )
-            sides.append(observe(moved, sol, obs))
-        out[:, k] = (sides[0] - sides[1]) / (2 * h)
-    values = observe(model, state, obs)
-    return Sensitivity(obs, tuple(pset.parameters[j] for j in cols), values, out, state)

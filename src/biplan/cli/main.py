@@ -17,7 +17,17 @@ from rich.console import Console
 from rich.markup import escape
 
 from biplan._errors import BiplanError, BiplanWarning
-from biplan.cli import calibrate, demo, maps, plot, reproduce, respond, states, validate
+from biplan.cli import (
+    calibrate,
+    demo,
+    maps,
+    plot,
+    reproduce,
+    respond,
+    sensitivity,
+    states,
+    validate,
+)
 
 __all__ = ["EXIT_BIPLAN_ERROR", "app", "main"]
 
@@ -36,6 +46,7 @@ app.add_typer(calibrate.app, name="calibrate")
 app.command("validate")(validate.validate)
 app.command("plot")(plot.plot)
 app.command("respond")(respond.respond)
+app.command("sensitivity")(sensitivity.sensitivity)
 app.command("states")(states.states)
 app.command("path")(states.path)
 app.add_typer(maps.app, name="map")
