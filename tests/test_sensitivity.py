@@ -21,6 +21,7 @@ from biplan.analysis.finite_differences import finite_differences, limit_point_f
 from biplan.analysis.limit_point import limit_point_sensitivity, locate_limit_point
 from biplan.analysis.sensitivity import Method, Observable, eigen_weights, sensitivity
 from biplan.cli.main import EXIT_BIPLAN_ERROR, main
+from biplan.io.config import dump_config
 from conftest import make_tube
 
 RTOL = 1e-5
@@ -171,27 +172,15 @@ def test_limit_point_derivatives_match_located_limit_points(model1):
     assert limit.force == pytest.approx(snap.force, abs=max(snap.tolerance, 1e-6) * 10)
 
 
-CONFIG = """
-[geometry]
-radius = 2.0
-pitch = 3.6
-helical_angle = 60.0
-n_modules = 1
-
-[laws.helical]
-type = "linear"
-stiffness = 1.3
-
-[laws.circular]
-type = "trilinear"
-stiffness = [0.9, -0.2, 0.6]
-transitions = [0.2, 1.3]
-"""
+def _config(folder: Path) -> Path:
+    """The one-module tube of ``model1`` as a TOML configuration."""
+    config = folder / "one.toml"
+    config.write_text(dump_config(make_tube(1)))
+    return config
 
 
 def test_cli_writes_the_table_and_the_chart(tmp_path: Path, model1):
-    config = tmp_path / "one.toml"
-    config.write_text(CONFIG)
+    config = _config(tmp_path)
     out = tmp_path / "out"
     with pytest.raises(SystemExit) as info:
         main(["sensitivity", str(config), "--force", "0.3", "--out", str(out), "--quiet"])
@@ -216,8 +205,7 @@ def test_cli_writes_the_table_and_the_chart(tmp_path: Path, model1):
 )
 def test_cli_refuses_bad_requests(tmp_path: Path, capsys, monkeypatch, args, needle):
     monkeypatch.setattr(biplan, "Model", lambda *a, **k: pytest.fail("reached the model"))
-    config = tmp_path / "one.toml"
-    config.write_text(CONFIG)
+    config = _config(tmp_path)
     with pytest.raises(SystemExit) as info:
         main(["sensitivity", str(config), *args, "--out", str(tmp_path / "o")])
     captured = capsys.readouterr()

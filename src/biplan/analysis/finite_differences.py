@@ -12,18 +12,18 @@ benchmark (``benchmarks/bench_sensitivity.py``).
 
 from __future__ import annotations
 
+from collections.abc import Callable
+
 import numpy as np
 
 from biplan._errors import ConvergenceError
-from biplan.analysis._parameters import AngleParameter, design_parameters
+from biplan.analysis._parameters import AngleParameter, ParameterSet, design_parameters
 from biplan.analysis.limit_point import LimitPoint, locate_limit_point
 from biplan.analysis.sensitivity import (
-    STATE_OBSERVABLES,
     Observable,
     Sensitivity,
-    check_state,
     eigen_weights,
-    observable,
+    request,
 )
 from biplan.assembly import Model
 from biplan.solvers.newton import Newton, Solution, solve_equilibrium
@@ -74,31 +74,19 @@ def finite_differences(
     ConvergenceError
         If a re-solve fails (it names the parameter and value).
     """
-    check_state(model, state)
-    disp = state.load.is_displacement_controlled
-    if observables is None:
-        observables = tuple(o for o in STATE_OBSERVABLES if disp or o is not Observable.FORCE)
-    obs = tuple(observable(o) for o in observables)
-    pset = design_parameters(model, state.load, angle=AngleParameter(angle), per_fold=per_fold)
-    names = pset.names if parameters is None else tuple(parameters)
-    cols = [pset.index(n) for n in names]
+    obs, pset, cols = request(model, state, observables, parameters, angle, per_fold)
     solver = solver or Newton(atol=1e-13)
-    base = pset.values
-    out = np.zeros((len(obs), len(cols)))
-    for k, j in enumerate(cols):
-        h = relative_step * max(abs(base[j]), 1.0)
-        sides = []
-        for sign in (1.0, -1.0):
-            v = base.copy()
-            v[j] += sign * h
-            moved, load = pset.model_at(model, v)
-            sol = solve_equilibrium(moved, solver, state.z, load)
-            if not sol.converged:
-                raise ConvergenceError(
-                    f"finite-difference re-solve at {pset.names[j]} = {v[j]:.10g}: {sol.message}"
-                )
-            sides.append(observe(moved, sol, obs))
-        out[:, k] = (sides[0] - sides[1]) / (2 * h)
+
+    def resolve(v: np.ndarray) -> np.ndarray:
+        moved, load = pset.model_at(model, v)
+        sol = solve_equilibrium(moved, solver, state.z, load)
+        if not sol.converged:
+            raise ConvergenceError(
+                f"finite-difference re-solve at {_where(pset, v)}: {sol.message}"
+            )
+        return observe(moved, sol, obs)
+
+    out = _central(pset.values, cols, relative_step, resolve)
     values = observe(model, state, obs)
     return Sensitivity(obs, tuple(pset.parameters[j] for j in cols), values, out, state)
 
@@ -114,23 +102,43 @@ def limit_point_finite_differences(
     (:func:`locate_limit_point` from ``limit.state``) for each perturbed design: a check."""
     pset = design_parameters(model, limit.state.load)
     names = pset.names[:-1] if parameters is None else tuple(parameters)
-    base = pset.values
-    out = np.zeros((2, len(names)))
-    for k, name in enumerate(names):
-        j = pset.index(name)
-        h = relative_step * max(abs(base[j]), 1.0)
-        found = []
-        for sign in (1.0, -1.0):
-            v = base.copy()
-            v[j] += sign * h
-            moved, _ = pset.model_at(model, v)
-            lp = locate_limit_point(moved, limit.state, tolerance=0.0)
-            found.append((lp.force, lp.displacement))
-        out[:, k] = (np.asarray(found[0]) - np.asarray(found[1])) / (2 * h)
+    cols = [pset.index(n) for n in names]
+
+    def relocate(v: np.ndarray) -> np.ndarray:
+        lp = locate_limit_point(pset.model_at(model, v)[0], limit.state, tolerance=0.0)
+        return np.asarray([lp.force, lp.displacement])
+
+    out = _central(pset.values, cols, relative_step, relocate)
     return Sensitivity(
         (Observable.LIMIT_FORCE, Observable.LIMIT_DISPLACEMENT),
-        tuple(pset.parameters[pset.index(n)] for n in names),
+        tuple(pset.parameters[j] for j in cols),
         np.asarray([limit.force, limit.displacement]),
         out,
         limit.state,
     )
+
+
+def _central(
+    base: np.ndarray,
+    cols: list[int],
+    relative_step: float,
+    evaluate: Callable[[np.ndarray], np.ndarray],
+) -> np.ndarray:
+    """Central differences (n_out, len(cols)) of ``evaluate`` at ``base`` along each column,
+    step h = relative_step · max(|v_j|, 1)."""
+    columns = []
+    for j in cols:
+        h = relative_step * max(abs(base[j]), 1.0)
+        sides = []
+        for sign in (1.0, -1.0):
+            v = base.copy()
+            v[j] += sign * h
+            sides.append(evaluate(v))
+        columns.append((sides[0] - sides[1]) / (2 * h))
+    return np.stack(columns, axis=1)
+
+
+def _where(pset: ParameterSet, v: np.ndarray) -> str:
+    """The parameters that differ from the base design, as ``name = value``."""
+    moved = np.flatnonzero(v != pset.values)
+    return ", ".join(f"{pset.names[j]} = {v[j]:.10g}" for j in moved) or "the base design"

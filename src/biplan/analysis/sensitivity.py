@@ -111,9 +111,6 @@ _ROWS = (
     Observable.DISPLACEMENT,
     Observable.MIN_EIGENVALUE,
 )
-#: Observables of an equilibrium (those of :func:`sensitivity` by default, with FORCE only
-#: under displacement control).
-STATE_OBSERVABLES = _ROWS
 
 
 class Method(enum.Enum):
@@ -338,15 +335,7 @@ def sensitivity(
         parameter, λ_min asked of a contact-locked state (no free direction), or a singular
         KKT Jacobian.
     """
-    check_state(model, state)
-    disp = state.load.is_displacement_controlled
-    if observables is None:
-        observables = tuple(o for o in _ROWS if disp or o is not Observable.FORCE)
-    obs = tuple(observable(o) for o in observables)
-    pset = design_parameters(model, state.load, angle=AngleParameter(angle), per_fold=per_fold)
-    cols = list(range(len(pset.parameters)))
-    if parameters is not None:
-        cols = [pset.index(name) for name in parameters]
+    obs, pset, cols = request(model, state, observables, parameters, angle, per_fold)
     weights = None
     if Observable.MIN_EIGENVALUE in obs:
         found = eigen_weights(model, state)
@@ -357,6 +346,26 @@ def sensitivity(
         weights = found[:2]
     y, dy = total_derivatives(model, state, pset, weights, Method(method), obs)
     return Sensitivity(obs, tuple(pset.parameters[j] for j in cols), y, dy[:, cols], state)
+
+
+def request(
+    model: Model,
+    state: Solution,
+    observables: tuple[Observable | str, ...] | None,
+    parameters: tuple[str, ...] | None,
+    angle: AngleParameter | str,
+    per_fold: bool,
+) -> tuple[tuple[Observable, ...], ParameterSet, list[int]]:
+    """A checked request: the observables (default those of the state's control), the
+    parameter set and the positions of the parameters asked for (default all)."""
+    check_state(model, state)
+    disp = state.load.is_displacement_controlled
+    if observables is None:
+        observables = tuple(o for o in _ROWS if disp or o is not Observable.FORCE)
+    obs = tuple(observable(o) for o in observables)
+    pset = design_parameters(model, state.load, angle=AngleParameter(angle), per_fold=per_fold)
+    names = pset.names if parameters is None else tuple(parameters)
+    return obs, pset, [pset.index(name) for name in names]
 
 
 def observable(o: Observable | str) -> Observable:
