@@ -26,8 +26,9 @@ from __future__ import annotations
 
 import copy
 import enum
+import math
 from collections import Counter
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from typing import Any, NamedTuple
 
 import numpy as np
@@ -35,8 +36,8 @@ import numpy as np
 from biplan._errors import ConfigError
 from biplan._jax import jnp
 from biplan.assembly import Load, Model, ModelParams
-from biplan.geometry import chain
-from biplan.laws import LinearLaw, TransitionReading
+from biplan.geometry import Development, Tube, chain
+from biplan.laws import LinearLaw, TransitionReading, TrilinearLaw
 
 __all__ = ["AngleParameter", "Parameter", "ParameterSet", "design_parameters"]
 
@@ -52,11 +53,15 @@ class AngleParameter(enum.Enum):
 
 @dataclass(frozen=True)
 class Parameter:
-    """One design parameter: its configuration name, unit and value at the base design."""
+    """One design parameter: its configuration name, unit, value at the base design and valid
+    range (low, high) [unit] (open; ±inf where unbounded; a range that depends on other
+    parameters, such as β < atan(2πR/l) or w2 > w1, is taken at the base design)."""
 
     name: str
     unit: str
     value: float
+    low: float = -math.inf
+    high: float = math.inf
 
 
 class Maps(NamedTuple):
@@ -81,12 +86,15 @@ class ParameterSet:
     displacement_control : bool
         Whether the load parameter is the prescribed displacement U [mm] (else the force F [N]).
     maps : Maps
+    groups : tuple
+        (name prefix, fold set, folds) of every law parameter group.
     """
 
     parameters: tuple[Parameter, ...]
     angle: AngleParameter
     displacement_control: bool
     maps: Maps
+    groups: tuple[tuple[str, str, tuple[int, ...]], ...] = ()  # (prefix, fold set, folds)
 
     @property
     def names(self) -> tuple[str, ...]:
@@ -114,6 +122,35 @@ class ParameterSet:
         out.params = params
         return out, Load(*(float(v) for v in load))
 
+    def tube_at(self, tube: Tube, values: Array) -> Tube:
+        """``tube`` with the parameters at ``values``: its geometry and laws rebuilt (validated
+        as a configuration is: :class:`ConfigError` on a value out of its range)."""
+        v = dict(zip(self.names, (float(x) for x in values), strict=True))
+        radius, pitch = v["geometry.radius"], v["geometry.pitch"]
+        if self.angle is AngleParameter.B:
+            angle = Development.helical_angle_for_b(v["geometry.b"], radius, pitch)
+        else:
+            angle = v["geometry.helical_angle"]
+        laws = {"helical": list(tube.helical_laws), "circular": list(tube.circular_laws)}
+        reading = tube.options.transition_reading
+        for prefix, fold_set, folds in self.groups:
+            old = laws[fold_set][folds[0]]
+            law: Any
+            if isinstance(old, LinearLaw):
+                law = LinearLaw(v[f"{prefix}.stiffness"])
+            else:
+                k = tuple(v[f"{prefix}.stiffness[{j}]"] for j in range(3))
+                t = tuple(v[f"{prefix}.transitions[{j}]"] for j in range(2))
+                law = TrilinearLaw.from_table(k, t, reading)  # type: ignore[arg-type]
+            for i in folds:
+                laws[fold_set][i] = law
+        return replace(
+            tube,
+            development=Development(radius, pitch, angle),
+            helical_laws=tuple(laws["helical"]),
+            circular_laws=tuple(laws["circular"]),
+        )
+
 
 def apply(
     maps: Maps, angle: AngleParameter, displacement_control: bool, v: Array
@@ -136,22 +173,33 @@ def apply(
     return params, Load(v[-1], jnp.asarray(0.0), jnp.asarray(0.0))
 
 
-def _law_entries(
-    law: Any, row: np.ndarray, reading: TransitionReading
-) -> list[tuple[str, str, float, list[int]]]:
-    """(key, unit, value, columns of (k1, k2, k3, w1, w2)) of a law's table entries, the values
-    read from its coefficient row in the model's parameters."""
+def _law_entries(law: Any, row: np.ndarray, reading: TransitionReading) -> list[Parameter]:
+    """The parameters (key as name) of a law's table entries, the values read from its
+    coefficient row (k1, k2, k3, w1, w2) in the model's parameters."""
+    inf = math.inf
     if isinstance(law, LinearLaw):
-        return [("stiffness", "N/mm²", row[0], [0, 1, 2])]
-    out = [(f"stiffness[{j}]", "N/mm²", row[j], [j]) for j in range(3)]
+        return [Parameter("stiffness", "N/mm²", row[0], 0.0)]
+    out = [
+        Parameter("stiffness[0]", "N/mm²", row[0], 0.0),
+        Parameter("stiffness[1]", "N/mm²", row[1]),
+        Parameter("stiffness[2]", "N/mm²", row[2], 0.0),
+    ]
     if reading is TransitionReading.BRANCH_LENGTHS:  # w1 = l1, w2 = l1 + l2
-        out += [
-            ("transitions[0]", "mm", row[3], [3, 4]),
-            ("transitions[1]", "mm", row[4] - row[3], [4]),
-        ]
-    else:
-        out += [("transitions[0]", "mm", row[3], [3]), ("transitions[1]", "mm", row[4], [4])]
-    return out
+        return [*out, Parameter("transitions[0]", "mm", row[3], 0.0),
+                Parameter("transitions[1]", "mm", row[4] - row[3], 0.0)]  # fmt: skip
+    return [*out, Parameter("transitions[0]", "mm", row[3], 0.0, row[4]),
+            Parameter("transitions[1]", "mm", row[4], row[3], inf)]  # fmt: skip
+
+
+#: Columns of (k1, k2, k3, w1, w2) each table entry moves.
+_COLUMNS = {
+    "stiffness": [0, 1, 2],
+    "stiffness[0]": [0],
+    "stiffness[1]": [1],
+    "stiffness[2]": [2],
+    "transitions[0]": [3],
+    "transitions[1]": [4],
+}
 
 
 def _law_groups(tube: Any, per_fold: bool) -> list[tuple[str, str, list[int], Any]]:
@@ -204,23 +252,32 @@ def design_parameters(
     tube = model.tube
     geometry = model.params.geometry
     radius, pitch, beta = (float(v) for v in geometry)
+    h = 2 * math.pi * radius
+    b = pitch / math.cos(beta) / h
     third = (
-        Parameter("geometry.b", "1", pitch / np.cos(beta) / (2 * np.pi * radius))
+        Parameter("geometry.b", "1", b, pitch / h, math.hypot(pitch, h) / h)
         if angle is AngleParameter.B
-        else Parameter("geometry.helical_angle", "deg", float(np.degrees(beta)))
-    )
+        else Parameter(
+            "geometry.helical_angle", "deg", math.degrees(beta), 0.0,
+            min(90.0, math.degrees(math.atan(h / pitch))),
+        )
+    )  # fmt: skip
     params = [
-        Parameter("geometry.radius", "mm", radius),
-        Parameter("geometry.pitch", "mm", pitch),
+        Parameter("geometry.radius", "mm", radius, 0.0),
+        Parameter("geometry.pitch", "mm", pitch, 0.0),
         third,
     ]
     rows = {k: np.asarray(getattr(model.params, k)) for k in ("helical", "circular")}
     sizes = {"helical": len(tube.helical_laws), "circular": len(tube.circular_laws)}
     reading = tube.options.transition_reading
     entries: list[tuple[str, list[int], list[int]]] = []  # (set, folds, columns) per parameter
-    for fold_set, prefix, folds, law in _law_groups(tube, per_fold):
-        for key, unit, value, cols in _law_entries(law, rows[fold_set][folds[0]], reading):
-            params.append(Parameter(f"{prefix}.{key}", unit, float(value)))
+    groups = _law_groups(tube, per_fold)
+    for fold_set, prefix, folds, law in groups:
+        for entry in _law_entries(law, rows[fold_set][folds[0]], reading):
+            cols = _COLUMNS[entry.name]
+            if reading is TransitionReading.BRANCH_LENGTHS and entry.name == "transitions[0]":
+                cols = [3, 4]
+            params.append(replace(entry, name=f"{prefix}.{entry.name}", value=float(entry.value)))
             entries.append((fold_set, folds, cols))
     disp = load.is_displacement_controlled
     params.append(
@@ -237,4 +294,5 @@ def design_parameters(
         jnp.asarray(masks["helical"]),
         jnp.asarray(masks["circular"]),
     )
-    return ParameterSet(tuple(params), angle, disp, maps)
+    layout = tuple((prefix, fold_set, tuple(folds)) for fold_set, prefix, folds, _ in groups)
+    return ParameterSet(tuple(params), angle, disp, maps, layout)

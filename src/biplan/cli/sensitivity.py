@@ -2,12 +2,11 @@
 
 Design sensitivities of one state of the tube by implicit differentiation of its KKT system
 (:mod:`biplan.analysis.sensitivity`): with ``--force F`` the state a force-controlled test
-reaches at F from the relaxed reference (the stable response, snaps included;
-:func:`~biplan.analysis.loadcontrol.load_response`), with ``--displacement U`` the state of the
-stable-branch displacement sweep at U (steps of :data:`SWEEP_STEP` mm;
-:func:`~biplan.analysis.quasistatic.displacement_sweep`); with ``--limit-point`` the first
-instability under force control, located (:mod:`biplan.analysis.limit_point`), and the
-derivatives of its force F* and displacement U*.
+reaches at F from the relaxed reference (the stable response, snaps included), with
+``--displacement U`` the state of the stable-branch displacement sweep at U
+(:func:`~biplan.analysis.reached.reached_state`); with ``--limit-point`` the first instability
+under force control, located (:mod:`biplan.analysis.limit_point`), and the derivatives of its
+force F* and displacement U*.
 
 Writes into DIR:
 
@@ -39,22 +38,19 @@ import numpy as np
 import typer
 from rich.console import Console
 
-from biplan._errors import ConfigError, ConvergenceError, check_range
+from biplan._errors import ConfigError, check_range
 from biplan.cli._checks import output_directory
 
 if TYPE_CHECKING:
     from biplan.analysis.sensitivity import Sensitivity
     from biplan.assembly import Model
-    from biplan.solvers.newton import Solution
 
-__all__ = ["MAX_DISPLACEMENT", "MAX_FORCE", "SWEEP_STEP", "sensitivity"]
+__all__ = ["MAX_DISPLACEMENT", "MAX_FORCE", "sensitivity"]
 
 #: Largest |F| [N] (the bound of the first-instability search).
 MAX_FORCE = 100.0
 #: Largest |U| [mm].
 MAX_DISPLACEMENT = 100.0
-#: Step [mm] of the displacement sweep to U.
-SWEEP_STEP = 0.05
 #: The files written into --out.
 OUTPUT_FILES = ("sensitivity.csv", "sensitivity.png")
 
@@ -129,54 +125,17 @@ def _run(
     per_fold: bool,
 ) -> Sensitivity:
     """The sensitivities asked for."""
+    from biplan import Load
     from biplan.analysis.limit_point import limit_point_sensitivity, locate_limit_point
+    from biplan.analysis.reached import reached_state
     from biplan.analysis.sensitivity import sensitivity as state_sensitivity
 
     if limit_point:
         found = locate_limit_point(model)
         return limit_point_sensitivity(model, found, angle=angle, per_fold=per_fold)
-    state = _force_state(model, force) if force is not None else _sweep_state(model, displacement)
+    load = Load.of_force(force) if force is not None else Load.of_displacement(displacement or 0.0)
+    state = reached_state(model, load)
     return state_sensitivity(model, state, angle=angle, per_fold=per_fold)
-
-
-def _force_state(model: Model, force: float) -> Solution:
-    """The state of the force-controlled response at F (re-solved to 1e-12)."""
-    import biplan
-    from biplan.analysis.loadcontrol import load_response
-
-    if force == 0.0:
-        return biplan.relaxed_reference(model, biplan.Newton(atol=1e-12))
-    path = load_response(model, biplan.Control.force(force))
-    if not path.completed:
-        raise ConvergenceError(
-            f"the force-controlled response ended at F = {path.force[-1]:.6g} N, short of "
-            f"--force {force:g}: {path.message}"
-        )
-    return _polish(model, path.z[-1], biplan.Load.of_force(force))
-
-
-def _sweep_state(model: Model, displacement: float | None) -> Solution:
-    """The state of the stable-branch displacement sweep at U (re-solved to 1e-12)."""
-    import biplan
-    from biplan.analysis.quasistatic import displacement_sweep
-
-    u = float(displacement or 0.0)
-    n = max(math.ceil(abs(u) / SWEEP_STEP), 1)
-    ref = biplan.relaxed_reference(model)
-    path = displacement_sweep(model, np.linspace(u / n, u, n), start=ref)
-    last = path.solutions[-1]
-    if not last.converged:
-        raise ConvergenceError(f"the displacement sweep failed at U = {u:g} mm: {last.message}")
-    return _polish(model, last.z, biplan.Load.of_displacement(u))
-
-
-def _polish(model: Model, z: np.ndarray, load: object) -> Solution:
-    import biplan
-
-    sol = biplan.solve_equilibrium(model, biplan.Newton(atol=1e-12), z, load)  # type: ignore[arg-type]
-    if not sol.converged:
-        raise ConvergenceError(f"re-solve of the state at {load}: {sol.message}")
-    return sol
 
 
 def _figure(result: Sensitivity, file: Path) -> None:
