@@ -20,6 +20,7 @@ from biplan._errors import BiplanError, BiplanWarning
 from biplan.cli import (
     calibrate,
     demo,
+    design,
     maps,
     plot,
     reproduce,
@@ -47,6 +48,7 @@ app.command("validate")(validate.validate)
 app.command("plot")(plot.plot)
 app.command("respond")(respond.respond)
 app.command("sensitivity")(sensitivity.sensitivity)
+app.command("design")(design.design)
 app.command("states")(states.states)
 app.command("path")(states.path)
 app.add_typer(maps.app, name="map")
