@@ -113,6 +113,11 @@ _ROWS = (
 )
 
 
+#: λ_min counts as repeated (not differentiable) when the next eigenvalue is within this,
+#: relative to max(|λ_min|, 1).
+SIMPLE_GAP = 1e-8
+
+
 class Method(enum.Enum):
     """Linear solves of the implicit derivative."""
 
@@ -332,8 +337,8 @@ def sensitivity(
     ------
     ConfigError
         On a state that did not converge or is not of this model, an unknown observable or
-        parameter, λ_min asked of a contact-locked state (no free direction), or a singular
-        KKT Jacobian.
+        parameter, λ_min asked of a contact-locked state (no free direction) or where it is a
+        repeated eigenvalue, or a singular KKT Jacobian.
     """
     obs, pset, cols = request(model, state, observables, parameters, angle, per_fold)
     weights = None
@@ -343,6 +348,12 @@ def sensitivity(
             raise ConfigError(
                 "observables", "min_eigenvalue", "left out at a contact-locked state (no H_r)"
             )
+        lam, gap = found[2], found[3]
+        if gap <= SIMPLE_GAP * max(abs(lam), 1.0):
+            raise ConfigError(
+                "observables", "min_eigenvalue",
+                f"left out where λ_min = {lam:.6g} is repeated (gap {gap:.2g}: no derivative)",
+            )  # fmt: skip
         weights = found[:2]
     y, dy = total_derivatives(model, state, pset, weights, Method(method), obs)
     return Sensitivity(obs, tuple(pset.parameters[j] for j in cols), y, dy[:, cols], state)
