@@ -58,6 +58,25 @@ def test_round_trip_recovers_the_laws(model1):
     assert result.jacobian.shape == (2, 2)
 
 
+def test_stiffness_scaling_closed_form():
+    """All laws linear: the energy is homogeneous of degree one in (k_h, k_c), so scaling both
+    by s keeps the state at a prescribed U and scales its reaction by s. Asking for twice the
+    force at the same deflection u_r has the closed-form answer (2 k_h, 2 k_c)."""
+
+    def tube(kh: float, kc: float) -> biplan.Tube:
+        return make_tube(1, helical=biplan.LinearLaw(kh), circular=biplan.LinearLaw(kc))
+
+    model = biplan.Model(tube(1.3, 0.9))
+    load = biplan.Load.of_displacement(0.4)
+    state = biplan.solve_equilibrium(model, biplan.Newton(atol=1e-13), None, load)
+    u_r = model.endpoint(state.q).u_r
+    targets = (f"force={2 * state.force!r}@U=0.4", f"u_r={u_r!r}@U=0.4")
+    vary = ("laws.helical.stiffness", "laws.circular.stiffness")
+    result = inverse_design(biplan.Model(tube(1.43, 0.81)), targets, vary, tolerance=1e-10)
+    assert result.success
+    np.testing.assert_allclose(result.values, [2.6, 1.8], rtol=1e-8)
+
+
 def test_limit_force_target(model1):
     wanted = locate_limit_point(model1).force + 0.1
     result = inverse_design(
