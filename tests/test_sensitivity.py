@@ -194,6 +194,20 @@ def test_cli_writes_the_table_and_the_chart(tmp_path: Path, model1):
 
 
 @pytest.mark.parametrize(
+    ("args", "observables"),
+    [(["--displacement", "0.2"], "force"), (["--limit-point"], "limit_force")],
+)
+def test_cli_other_states(tmp_path: Path, model1, args, observables):
+    out = tmp_path / "out"
+    with pytest.raises(SystemExit) as info:
+        main(["sensitivity", str(_config(tmp_path)), *args, "--out", str(out), "--quiet"])
+    assert info.value.code in (0, None)
+    table = pd.read_csv(out / "sensitivity.csv")
+    assert observables in set(table.observable)
+    assert np.all(np.isfinite(table.value))
+
+
+@pytest.mark.parametrize(
     ("args", "needle"),
     [
         (["--force", "nan"], "--force"),
