@@ -54,7 +54,7 @@ def finite_differences(
     observables: tuple[Observable | str, ...] | None = None,
     parameters: tuple[str, ...] | None = None,
     *,
-    relative_step: float = 1e-5,
+    relative_step: float = 1e-4,
     solver: Newton | None = None,
     angle: AngleParameter | str = AngleParameter.HELICAL_ANGLE,
     per_fold: bool = False,
@@ -65,7 +65,9 @@ def finite_differences(
     Parameters
     ----------
     relative_step : float
-        Step h = relative_step · max(|p|, 1) [parameter unit].
+        Step h = relative_step · max(|p|, 1) [parameter unit]. The default balances the
+        truncation error (∝ h²) against the re-solves' rounding (∝ 1/h): on the test designs
+        it gives the implicit derivatives to ~1e-6 relative, against ~1e-5 at 1e-5 or 1e-3.
     solver : Newton, optional
         Default ``Newton(atol=1e-13)``.
 
