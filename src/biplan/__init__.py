@@ -23,6 +23,9 @@ if TYPE_CHECKING:
     from biplan._errors import ConfigError as ConfigError
     from biplan._errors import ConvergenceError as ConvergenceError
     from biplan._errors import CostWarning as CostWarning
+    from biplan.analysis.limit_point import limit_point_sensitivity as limit_point_sensitivity
+    from biplan.analysis.sensitivity import Sensitivity as Sensitivity
+    from biplan.analysis.sensitivity import sensitivity as sensitivity
     from biplan.analysis.stability import Stability as Stability
     from biplan.analysis.stability import Verdict as Verdict
     from biplan.analysis.stability import classify as classify
@@ -62,6 +65,9 @@ _EXPORTS = {
     "ConfigError": "biplan._errors",
     "ConvergenceError": "biplan._errors",
     "CostWarning": "biplan._errors",
+    "limit_point_sensitivity": "biplan.analysis.limit_point",
+    "Sensitivity": "biplan.analysis.sensitivity",
+    "sensitivity": "biplan.analysis.sensitivity",
     "Stability": "biplan.analysis.stability",
     "Verdict": "biplan.analysis.stability",
     "classify": "biplan.analysis.stability",
@@ -134,6 +140,7 @@ __all__ = [
     "Newton",
     "Path",
     "PathStatus",
+    "Sensitivity",
     "Solution",
     "Stability",
     "Status",
@@ -147,9 +154,11 @@ __all__ = [
     "classify",
     "designs",
     "integrate",
+    "limit_point_sensitivity",
     "load_config",
     "reduced_hessian",
     "relaxed_reference",
+    "sensitivity",
     "solve_equilibrium",
     "trace_path",
 ]

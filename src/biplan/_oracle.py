@@ -66,7 +66,7 @@ def lagrangian(
 def residual(layout: TubeLayout, p: ModelParams, z: Array, load: Load) -> Array:
     """KKT residual r(z) (MODEL §11) for z = [q, λ, λ_∂, μ]."""
     q, _, lam_c, mu = _split(layout, z)
-    kin_ref = jax.lax.stop_gradient(_reference_load_point(layout, p))
+    kin_ref = _reference_load_point(layout, p)
     rest = z[layout.n_coordinates :]
     grad_q = jax.grad(lambda qq: lagrangian(layout, p, jnp.concatenate([qq, rest]), load, kin_ref))(
         q
@@ -110,7 +110,7 @@ def kkt_jacobian(layout: TubeLayout, p: ModelParams, z: Array, load: Load) -> Ar
     """
     nq, ng, nc = _sizes(layout)
     q, _lam, lam_c, _mu = _split(layout, z)
-    kin_ref = jax.lax.stop_gradient(_reference_load_point(layout, p))
+    kin_ref = _reference_load_point(layout, p)
     rest = z[nq:]
     k = jax.hessian(lambda qq: lagrangian(layout, p, jnp.concatenate([qq, rest]), load, kin_ref))(q)
     jc = jax.jacfwd(lambda qq: _constraint_values(layout, p, qq, kin_ref))(q)
@@ -122,7 +122,7 @@ def state_data(layout: TubeLayout, p: ModelParams, z: Array, load: Load) -> Stat
     """Energy split, endpoint, Lagrangian Hessian and constraint Jacobians at z."""
     nq, _ng, _nc = _sizes(layout)
     q = z[:nq]
-    kin_ref = jax.lax.stop_gradient(_reference_load_point(layout, p))
+    kin_ref = _reference_load_point(layout, p)
     kin = _kin(layout, p, q)
     helical, circ = _energies(layout, p, kin)
     rest = z[nq:]

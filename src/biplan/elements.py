@@ -443,7 +443,7 @@ def load_point_height(layout: TubeLayout, geom: chain.GeometryParams, q: Array) 
     """
     if frames.scannable(layout):
         return frames.load_point_height(layout, geom, q)
-    ref = jax.lax.stop_gradient(chain.kinematics(layout, geom, jnp.zeros_like(q)))
+    ref = chain.kinematics(layout, geom, jnp.zeros_like(q))  # depends on the geometry only
     return chain.load_height(layout, geom, chain.kinematics(layout, geom, q), ref)
 
 

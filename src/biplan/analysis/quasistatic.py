@@ -33,7 +33,8 @@ KICK = 0.1
 SUB_STEPS = 20
 #: Residual ‖r‖∞ [N, mm] below which an unconverged proximal sub-problem moves the anchor.
 SUB_TOLERANCE = 1e-6
-#: Step halvings of a proximal sub-problem's line search before Levenberg–Marquardt.
+#: Step halvings of a proximal sub-problem's line search before Levenberg–Marquardt, and of
+#: the default Newton of :func:`displacement_sweep`.
 SUB_BACKTRACKS = 8
 
 
@@ -261,6 +262,9 @@ def displacement_sweep(
     displacements : array_like
         Finite load-point displacements U [mm], in the order to visit.
     solver : Newton, optional
+        Default ``Newton(max_backtracks=SUB_BACKTRACKS)``: a step past a vanished branch (a
+        snap) fails, and with 30 halvings a failure cost up to 2 × 60 × 31 residuals and
+        Jacobians (docs/performance.md, "Fail-fast Newton at snaps"); converged steps are the same.
     start : Solution, optional
         Starting equilibrium; default the relaxed reference.
     select_stable : bool
@@ -277,7 +281,7 @@ def displacement_sweep(
     u = np.asarray(displacements, dtype=float).ravel()
     if u.size == 0 or not np.all(np.isfinite(u)):
         raise ConfigError("displacements", displacements, "a non-empty array of finite mm values")
-    solver = solver or Newton()
+    solver = solver or Newton(max_backtracks=SUB_BACKTRACKS)
     current = start if start is not None else relaxed_reference(model, solver)
     rows: list[tuple] = []
     sols: list[Solution] = []

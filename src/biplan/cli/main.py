@@ -20,11 +20,13 @@ from biplan._errors import BiplanError, BiplanWarning
 from biplan.cli import (
     calibrate,
     demo,
+    design,
     explore,
     maps,
     plot,
     reproduce,
     respond,
+    sensitivity,
     states,
     validate,
 )
@@ -47,6 +49,8 @@ app.command("validate")(validate.validate)
 app.command("plot")(plot.plot)
 app.command("explore")(explore.explore)
 app.command("respond")(respond.respond)
+app.command("sensitivity")(sensitivity.sensitivity)
+app.command("design")(design.design)
 app.command("states")(states.states)
 app.command("path")(states.path)
 app.add_typer(maps.app, name="map")

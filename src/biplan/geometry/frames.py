@@ -164,6 +164,8 @@ def _load_point(layout: TubeLayout, geom: GeometryParams, q: Array) -> Array:
 
 def load_point_height(layout: TubeLayout, geom: GeometryParams, q: Array) -> Array:
     """z_p(q) [mm] (MODEL W1) through the scanned chain; equals
-    :func:`biplan.geometry.chain.load_height` on a :func:`scannable` layout."""
-    ref_point = jax.lax.stop_gradient(_load_point(layout, geom, jnp.zeros_like(q)))
+    :func:`biplan.geometry.chain.load_height` on a :func:`scannable` layout. The reference
+    point (q = 0) depends on the geometry, not on q: it carries the derivatives with respect
+    to R, l and β (design sensitivities)."""
+    ref_point = _load_point(layout, geom, jnp.zeros_like(q))
     return _load_point(layout, geom, q) - ref_point

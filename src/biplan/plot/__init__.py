@@ -15,6 +15,7 @@ from biplan.plot.diagnostics import min_eigenvalue as min_eigenvalue
 from biplan.plot.diagnostics import phase_fractions as phase_fractions
 from biplan.plot.gallery import gallery as gallery
 from biplan.plot.response import force_displacement as force_displacement
+from biplan.plot.sensitivity import elasticities as elasticities
 from biplan.plot.tube import development as development
 from biplan.plot.tube import development_panels as development_panels
 from biplan.plot.tube import elongation_norm as elongation_norm
@@ -26,6 +27,7 @@ __all__ = [
     "cylinder",
     "development",
     "development_panels",
+    "elasticities",
     "elongation_norm",
     "energy_by_fold_set",
     "fold_lines",

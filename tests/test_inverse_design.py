@@ -1,0 +1,132 @@
+"""Inverse design: a round trip (perturb the one-module tube's laws, ask for its original u_z and
+u_r at a force, recover the laws), a limit-force target, the target syntax, and the command
+line (writes the found design as a configuration; a target that cannot be met exits 1 with the
+best design; a malformed request is refused before any solve).
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+import biplan
+from biplan.analysis.inverse import Target, inverse_design
+from biplan.analysis.limit_point import locate_limit_point
+from biplan.cli.main import EXIT_BIPLAN_ERROR, main
+from biplan.io.config import dump_config, load_config
+from conftest import make_tube
+
+VARY = ("laws.helical.stiffness", "laws.circular.stiffness[0]")
+
+
+def _perturbed() -> biplan.Tube:
+    """The one-module tube with k = 1.5 (was 1.3) and k1 = 1.0 (was 0.9)."""
+    tube = make_tube(1, helical=biplan.LinearLaw(1.5))
+    law = biplan.TrilinearLaw(stiffness=(1.0, -0.2, 0.6), transitions=(0.2, 1.3))
+    return tube.with_law(("circular", 0), law)
+
+
+def _original_targets(model1: biplan.Model) -> tuple[str, str]:
+    state = biplan.solve_equilibrium(
+        model1, biplan.Newton(atol=1e-13), None, biplan.Load.of_force(0.3)
+    )
+    e = model1.endpoint(state.q)
+    return (f"u_z/l0={e.u_z / model1.tube.initial_length!r}@F=0.3", f"u_r={e.u_r!r}@F=0.3")
+
+
+def test_target_syntax():
+    t = Target.parse("u_z/l0=0.06@F=1.6")
+    assert (t.observable.value, t.value, t.per_length) == ("u_z", 0.06, True)
+    assert float(t.load.force) == 1.6 and not t.load.is_displacement_controlled
+    assert Target.parse("force=1.2@U=2").load.is_displacement_controlled
+    assert Target.parse(" limit_force = 1.5 ").label == "limit_force=1.5"
+    assert Target.parse(t.label) == t
+    for bad in ("u_z=0.1", "limit_force=1@F=2", "u_q=1@F=1", "u_z=abc@F=1", "u_z=1@F=nan"):
+        with pytest.raises(biplan.ConfigError, match="target"):
+            Target.parse(bad)
+
+
+def test_round_trip_recovers_the_laws(model1):
+    start = biplan.Model(_perturbed())
+    result = inverse_design(start, _original_targets(model1), VARY, tolerance=1e-9)
+    assert result.success, result
+    np.testing.assert_allclose(result.values, [1.3, 0.9], rtol=1e-6)
+    np.testing.assert_allclose(result.start, [1.5, 1.0])
+    assert result.tube.helical_laws[0].stiffness == result.values[0]
+    assert result.jacobian.shape == (2, 2)
+
+
+def test_stiffness_scaling_closed_form():
+    """All laws linear: the energy is homogeneous of degree one in (k_h, k_c), so scaling both
+    by s keeps the state at a prescribed U and scales its reaction by s. Asking for twice the
+    force at the same deflection u_r has the closed-form answer (2 k_h, 2 k_c)."""
+
+    def tube(kh: float, kc: float) -> biplan.Tube:
+        return make_tube(1, helical=biplan.LinearLaw(kh), circular=biplan.LinearLaw(kc))
+
+    model = biplan.Model(tube(1.3, 0.9))
+    load = biplan.Load.of_displacement(0.4)
+    state = biplan.solve_equilibrium(model, biplan.Newton(atol=1e-13), None, load)
+    u_r = model.endpoint(state.q).u_r
+    targets = (f"force={2 * state.force!r}@U=0.4", f"u_r={u_r!r}@U=0.4")
+    vary = ("laws.helical.stiffness", "laws.circular.stiffness")
+    result = inverse_design(biplan.Model(tube(1.43, 0.81)), targets, vary, tolerance=1e-10)
+    assert result.success
+    np.testing.assert_allclose(result.values, [2.6, 1.8], rtol=1e-8)
+
+
+def test_limit_force_target(model1):
+    wanted = locate_limit_point(model1).force + 0.1
+    result = inverse_design(
+        model1, (f"limit_force={wanted!r}",), ("laws.circular.stiffness[0]",), tolerance=1e-9
+    )
+    assert result.success
+    assert result.values[0] > 0.9  # a stiffer closed branch holds more
+    again = locate_limit_point(biplan.Model(result.tube))
+    assert again.force == pytest.approx(wanted, rel=1e-7)
+
+
+def test_cli_writes_the_design(tmp_path: Path, model1):
+    config = tmp_path / "start.toml"
+    config.write_text(dump_config(_perturbed()))
+    out = tmp_path / "out"
+    args = ["design", str(config), "--out", str(out), "--quiet", "--tolerance", "1e-9"]
+    for t in _original_targets(model1):
+        args += ["--target", t]
+    for name in VARY:
+        args += ["--vary", name]
+    with pytest.raises(SystemExit) as info:
+        main(args)
+    assert info.value.code in (0, None)
+    found = load_config(out / "design.toml")
+    assert found.helical_laws[0].stiffness == pytest.approx(1.3, rel=1e-6)
+    assert found.circular_laws[0].stiffness[0] == pytest.approx(0.9, rel=1e-6)
+    assert "True" in (out / "design.csv").read_text()
+    assert len((out / "design_sensitivity.csv").read_text().splitlines()) == 1 + 2 * 2
+
+
+@pytest.mark.parametrize(
+    ("extra", "needle"),
+    [
+        (["--target", "u_z=0.1", "--vary", "laws.helical.stiffness"], "--target"),
+        (["--target", "u_z=0.1@F=0.3", "--vary", "laws.helical.stifness"], "--vary"),
+        (["--target", "u_z=0.1@F=0.3", "--vary", "load.force"], "--vary"),
+        (["--target", "u_z=0.1@F=0.3", "--vary", "geometry.pitch", "--starts", "0"], "--starts"),
+    ],
+)
+def test_cli_refuses_bad_requests(tmp_path: Path, capsys, monkeypatch, extra, needle):
+    import biplan.analysis.inverse
+
+    monkeypatch.setattr(
+        biplan.analysis.inverse, "inverse_design", lambda *a, **k: pytest.fail("solved")
+    )
+    config = tmp_path / "one.toml"
+    config.write_text(dump_config(make_tube(1)))
+    with pytest.raises(SystemExit) as info:
+        main(["design", str(config), *extra, "--out", str(tmp_path / "o")])
+    captured = capsys.readouterr()
+    assert info.value.code == EXIT_BIPLAN_ERROR
+    lines = [line for line in captured.err.splitlines() if line.strip()]
+    assert len(lines) == 1 and needle in lines[0], captured.err
