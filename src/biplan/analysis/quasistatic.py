@@ -5,8 +5,10 @@ equilibrium and classifies the result with the reduced Hessian. When the equilib
 is unstable (for example the symmetric state of folds in series past the force peak), the
 sweep descends from it along its most unstable eigenmode (both signs; the next modes only if
 that finds nothing) at the same U_k and keeps the stable equilibrium of lowest energy — the
-branch a displacement-controlled test jumps to. If none is found, the unstable equilibrium is
-recorded as such. Path following through limit points (arc length) lives in the continuation
+branch a displacement-controlled test jumps to; the step is a snap when Newton from that state
+back at the previous step's U does not return to the previous state (a pitchfork of identical
+folds in series is left continuously). If none is found, the unstable equilibrium is recorded as
+such. Path following through limit points (arc length) lives in the continuation
 solver.
 """
 
@@ -73,7 +75,9 @@ class QuasiStaticPath:
     stable : ndarray of bool
     status : tuple of Status
     switched : ndarray of bool
-        True where the sweep left an unstable equilibrium for a stable one.
+        True where the sweep snapped: it left an unstable equilibrium for a stable one on
+        another branch, one that does not lead back to the previous state (a stable state on
+        the same branch, reached through an unstable one at a pitchfork, is not a snap).
     solutions : tuple of Solution
     """
 
@@ -210,6 +214,21 @@ def _stabilise(
     return sol, stab, False
 
 
+def _snapped(model: Model, solver: Newton, current: Solution, found: Solution) -> bool:
+    """Whether reaching the stable ``found`` from the stable ``current`` was a snap.
+
+    The hysteresis test: a snap leaves a branch that has ended, so Newton from ``found`` back
+    at ``current``'s displacement stays on ``found``'s branch and lands away from ``current``
+    (or fails). On a continuous stable branch, which a step reaches through an unstable
+    equilibrium only by the luck of the line search (the symmetric state of identical folds
+    in series past their common capacity, a pitchfork), it lands back on ``current``."""
+    back = solve_equilibrium(model, solver, found, Load.of_displacement(current.displacement))
+    if not back.converged:
+        return True
+    step = float(np.max(np.abs(found.q - current.q)))
+    return float(np.max(np.abs(back.q - current.q))) > max(1e-2 * step, 1e-9)
+
+
 def _advance(
     model: Model,
     solver: Newton,
@@ -231,7 +250,7 @@ def _advance(
             found = relax(model, current, Load.of_displacement(target), solver)
             if found is None:
                 return sol, None, False
-            return found[0], found[1], True
+            return found[0], found[1], _snapped(model, solver, current, found[0])
         mid = 0.5 * (current.displacement + target)
         half, _, sw1 = _advance(model, solver, current, mid, select_stable, depth + 1)
         if not half.converged:
@@ -242,6 +261,7 @@ def _advance(
     switched = False
     if select_stable and stab.verdict is Verdict.UNSTABLE:
         sol, stab, switched = _stabilise(model, sol, stab, solver)
+        switched = switched and _snapped(model, solver, current, sol)
     return sol, stab, switched
 
 

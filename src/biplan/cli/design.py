@@ -50,7 +50,7 @@ def design(
     ],
     target: Annotated[
         list[str],
-        typer.Option(help="OBSERVABLE[/l0]=VALUE[@F=FORCE|@U=DISPLACEMENT] (repeatable)."),
+        typer.Option(help="OBSERVABLE\\[/l0]=VALUE\\[@F=FORCE|@U=DISPLACEMENT] (repeatable)."),
     ],
     vary: Annotated[
         list[str], typer.Option(help="Design parameter to vary, e.g. laws.helical.stiffness.")

@@ -69,7 +69,7 @@ SWEEP_COLUMNS = {
     "energy": ("N*mm", "strain energy"),
     "min_eigenvalue": ("N*mm", "smallest reduced-Hessian eigenvalue (inf: contact-locked)"),
     "stable": ("1", "1 stable"),
-    "switched": ("1", "1 where the sweep left an unstable equilibrium for a stable one"),
+    "switched": ("1", "1 where the sweep snapped to a stable state on another branch"),
 }
 #: Columns of :func:`save_sweep_csv`, in order.
 SWEEP_CSV_COLUMNS = (
