@@ -6,6 +6,7 @@ best design; a malformed request is refused before any solve).
 
 from __future__ import annotations
 
+from dataclasses import replace
 from pathlib import Path
 
 import numpy as np
@@ -43,7 +44,11 @@ def test_target_syntax():
     assert Target.parse("force=1.2@U=2").load.is_displacement_controlled
     assert Target.parse(" limit_force = 1.5 ").label == "limit_force=1.5"
     assert Target.parse(t.label) == t
-    for bad in ("u_z=0.1", "limit_force=1@F=2", "u_q=1@F=1", "u_z=abc@F=1", "u_z=1@F=nan"):
+    s = Target.parse("u_z/l0=0.9@state=1b")
+    assert (s.state, float(s.load.force), s.label) == ("1B", 0.0, "u_z/l0=0.9@state=1B")
+    assert Target.parse(s.label) == s
+    named = ("u_z=1@state=X1", "limit_force=1@state=66", "u_z=0.1@state=")
+    for bad in ("u_z=0.1", "limit_force=1@F=2", "u_q=1@F=1", "u_z=abc@F=1", "u_z=1@F=nan", *named):
         with pytest.raises(biplan.ConfigError, match="target"):
             Target.parse(bad)
 
@@ -75,6 +80,28 @@ def test_stiffness_scaling_closed_form():
     result = inverse_design(biplan.Model(tube(1.43, 0.81)), targets, vary, tolerance=1e-10)
     assert result.success
     np.testing.assert_allclose(result.values, [2.6, 1.8], rtol=1e-8)
+
+
+def test_named_state_round_trip(model4):
+    """Fully bistable tube: move the circular spinodal end (1.3 → 1.5 mm) and ask for the
+    original u_z/l0 of the all-circular-open state 2A; the fit recovers 1.3 mm."""
+    from biplan.analysis.states import relax_state
+
+    state = relax_state(model4, "2A")
+    wanted = model4.endpoint(state.q).u_z / model4.tube.initial_length
+    law = model4.tube.circular_laws[0]
+    moved = replace(law, transitions=(law.transitions[0], 1.5))
+    tube = model4.tube
+    for k in range(len(tube.circular_laws)):
+        tube = tube.with_law(("circular", k), moved)
+    result = inverse_design(
+        biplan.Model(tube), (f"u_z/l0={wanted!r}@state=2A",), ("laws.circular.transitions[1]",),
+        tolerance=1e-9,
+    )  # fmt: skip
+    assert result.success, result
+    assert result.values[0] == pytest.approx(1.3, rel=1e-6)
+    with pytest.raises(biplan.ConfigError, match="state label"):
+        inverse_design(model4, ("u_z=0.1@state=1FF",), ("laws.circular.transitions[1]",))
 
 
 def test_limit_force_target(model1):
@@ -114,6 +141,7 @@ def test_cli_writes_the_design(tmp_path: Path, model1):
         (["--target", "u_z=0.1@F=0.3", "--vary", "laws.helical.stifness"], "--vary"),
         (["--target", "u_z=0.1@F=0.3", "--vary", "load.force"], "--vary"),
         (["--target", "u_z=0.1@F=0.3", "--vary", "geometry.pitch", "--starts", "0"], "--starts"),
+        (["--target", "u_z=0.1@state=1F", "--vary", "geometry.pitch"], "--target"),
     ],
 )
 def test_cli_refuses_bad_requests(tmp_path: Path, capsys, monkeypatch, extra, needle):

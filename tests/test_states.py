@@ -18,7 +18,7 @@ from biplan.analysis.labels import (
     label_to_bits,
     physical_folds,
 )
-from biplan.analysis.states import enumerate_states
+from biplan.analysis.states import enumerate_states, relax_state, state_bits
 from biplan.analysis.transitions import pathway, transition_graph, write_graphml
 from biplan.assembly import kernels
 
@@ -131,6 +131,23 @@ def test_states_are_distinct_and_every_seed_is_accounted_for(catalogue4):
     for seed in catalogue4.seeds:
         if seed.outcome == "stable":
             assert catalogue4.state(seed.state).bits == seed.reached_bits
+
+
+def test_a_named_state_relaxed_alone_is_the_enumerated_one(catalogue4, model4):
+    """relax_state (one seed, then Newton to 1e-12) lands on the catalogue's state, with its
+    bits; a label of no stable state is refused with what its seed reached instead."""
+    by_name = {s.name: s for s in catalogue4.states}
+    for label in ("1B", "66"):
+        sol = relax_state(model4, label)
+        assert sol.converged and sol.residual_norm < 1e-11
+        assert state_bits(model4, sol.q) == by_name[label].bits
+        np.testing.assert_allclose(sol.q, by_name[label].q, atol=1e-6)
+    missing = next(o for o in catalogue4.seeds if o.outcome == "stable" and not o.matches_seed)
+    if missing.seed not in by_name:
+        with pytest.raises(biplan.ConvergenceError, match=f"state {missing.seed}"):
+            relax_state(model4, missing.seed)
+    with pytest.raises(biplan.ConfigError, match="label"):
+        relax_state(model4, "FF")
 
 
 def test_closed_state_is_found(catalogue4):
@@ -258,3 +275,19 @@ def test_edge_fit_slope_branches_follow_open_helical_folds(catalogue4):
         assert max(by_count[a]) < min(by_count[b]), (a, b)
     assert catalogue4.open_counts(catalogue4.state("66"))[0] == 2
     assert catalogue4.open_counts(catalogue4.state("1B"))[0] == 2
+
+
+def test_laws_inferred_from_fig4_meet_the_papers_elongation(model4):
+    """designs.fully_bistable(laws=INFERRED_FIG4): 66 and 1B stable at the paper's
+    u_z/l0 = 0.9 (one digit: ± 0.05), 1B deflecting more (main text, Fig. 4 B)."""
+    laws = biplan.designs.FullyBistableLaws.INFERRED_FIG4
+    model = biplan.Model(biplan.designs.fully_bistable(laws=laws))
+    assert model.layout == model4.layout and "inferred" in model.tube.name
+    l0 = model.tube.initial_length
+    ends = {label: model.endpoint(relax_state(model, label).q) for label in ("66", "1B")}
+    for e in ends.values():
+        assert abs(e.u_z / l0 - 0.9) < 0.05
+    assert abs(ends["1B"].u_r) > abs(ends["66"].u_r)
+    assert biplan.designs.fully_bistable(laws="inferred-from-fig4") == model.tube
+    with pytest.raises(biplan.ConfigError, match="laws"):
+        biplan.designs.fully_bistable(laws="fitted")

@@ -6,20 +6,27 @@ l_circ = [0.2, 1.3] mm, helical linear k = 1.3 N/mm²; b = 0.573 (paper: 0.58), 
 
 ``fully_bistable()`` is the four-module variant with both fold sets trilinear and the same
 geometry, no base circular fold (7 bistable folds, MODEL.md §5 K4/§15). The paper gives no laws
-for it; these are provisional (issue "stable states"):
-helical (2.0, −1.6, 1.0) N/mm², (0.05, 0.3) mm; circular (0.9, −0.37, 0.6) N/mm², (0.3, 1.3) mm.
+for it. Two law sets (:class:`FullyBistableLaws`):
+
+* ``PROVISIONAL`` (default): helical (2.0, −1.6, 1.0) N/mm², (0.05, 0.3) mm; circular
+  (0.9, −0.37, 0.6) N/mm², (0.3, 1.3) mm.
+* ``INFERRED_FIG4``: the provisional laws with the spinodal ends moved (helical 0.3 →
+  0.2174 mm, circular 1.3 → 4.331 mm) by inverse design to the paper's u_z/l0 = 0.9 of the
+  stable states 66 and 1B (main text, Fig. 4 B); reached: 0.915 and 0.883
+  (``benchmarks/fidelity_fully_bistable.py``; docs/fidelity.md).
 """
 
 from __future__ import annotations
 
+import enum
 from dataclasses import dataclass
 
-from biplan._errors import check_integer
+from biplan._errors import ConfigError, check_integer
 from biplan.geometry import Tube
 from biplan.laws import LinearLaw, TrilinearLaw
 from biplan.options import ChainAttachment, ModelOptions
 
-__all__ = ["fully_bistable", "semi_bistable"]
+__all__ = ["FullyBistableLaws", "fully_bistable", "semi_bistable"]
 
 
 @dataclass(frozen=True)
@@ -37,6 +44,30 @@ class CalibrationTable:
 
 #: Table calib of the SI.
 SEMI_BISTABLE_TABLE = CalibrationTable()
+
+
+class FullyBistableLaws(enum.Enum):
+    """Law sets of :func:`fully_bistable` (the paper gives none; module docstring)."""
+
+    PROVISIONAL = "provisional"
+    INFERRED_FIG4 = "inferred-from-fig4"
+
+
+#: (helical, circular) laws of each set: stiffness [N/mm²], transitions [mm].
+_FULLY_BISTABLE_LAWS = {
+    FullyBistableLaws.PROVISIONAL: (
+        ((2.0, -1.6, 1.0), (0.05, 0.3)),
+        ((0.9, -0.37, 0.6), (0.3, 1.3)),
+    ),
+    FullyBistableLaws.INFERRED_FIG4: (
+        ((2.0, -1.6, 1.0), (0.05, 0.217426)),
+        ((0.9, -0.37, 0.6), (0.3, 4.33087)),
+    ),
+}
+_LAW_NAMES = {
+    FullyBistableLaws.PROVISIONAL: "provisional laws",
+    FullyBistableLaws.INFERRED_FIG4: "laws inferred from Fig. 4",
+}
 
 
 def semi_bistable(options: ModelOptions | None = None) -> Tube:
@@ -59,8 +90,13 @@ def semi_bistable(options: ModelOptions | None = None) -> Tube:
     )
 
 
-def fully_bistable(options: ModelOptions | None = None, n_modules: int = 4) -> Tube:
-    """The fully bistable MFT (four modules, seven bistable folds) with provisional laws.
+def fully_bistable(
+    options: ModelOptions | None = None,
+    n_modules: int = 4,
+    laws: FullyBistableLaws | str = FullyBistableLaws.PROVISIONAL,
+) -> Tube:
+    """The fully bistable MFT (four modules, seven bistable folds) with one of the law sets
+    of :class:`FullyBistableLaws` (module docstring).
 
     Default options: the MODEL.md readings except R3, which is ``EDGE_FIT`` (edge-fit
     stacking of the module frames; ``docs/states.md``): under it every open helical fold
@@ -69,14 +105,17 @@ def fully_bistable(options: ModelOptions | None = None, n_modules: int = 4) -> T
     it. The stable states themselves do not depend on R3.
     """
     n_modules = check_integer("n_modules", n_modules, low=1)
+    try:
+        laws = FullyBistableLaws(laws)
+    except ValueError:
+        valid = ", ".join(repr(k.value) for k in FullyBistableLaws)
+        raise ConfigError("laws", laws, f"one of {valid}") from None
     options = options or ModelOptions(chain_attachment=ChainAttachment.EDGE_FIT)
     t = SEMI_BISTABLE_TABLE
-    helical = TrilinearLaw.from_table(
-        (2.0, -1.6, 1.0), (0.05, 0.3), options.transition_reading
-    ).require_bistable("laws.helical")
-    circular = TrilinearLaw.from_table(
-        (0.9, -0.37, 0.6), (0.3, 1.3), options.transition_reading
-    ).require_bistable("laws.circular")
+    (k_h, w_h), (k_c, w_c) = _FULLY_BISTABLE_LAWS[laws]
+    reading = options.transition_reading
+    helical = TrilinearLaw.from_table(k_h, w_h, reading).require_bistable("laws.helical")
+    circular = TrilinearLaw.from_table(k_c, w_c, reading).require_bistable("laws.circular")
     return Tube.uniform(
         radius=t.radius,
         pitch=t.pitch,
@@ -86,5 +125,5 @@ def fully_bistable(options: ModelOptions | None = None, n_modules: int = 4) -> T
         circular=circular,
         base_fold=False,
         options=options,
-        name=f"fully bistable MFT, {n_modules} modules (provisional laws)",
+        name=f"fully bistable MFT, {n_modules} modules ({_LAW_NAMES[laws]})",
     )

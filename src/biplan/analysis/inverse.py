@@ -1,12 +1,14 @@
 """Inverse design: the design parameters that give a wanted response, by gradient-based least
 squares on the exact design sensitivities.
 
-A :class:`Target` asks for one observable at a load, or for the first instability under force
-control; its text form is ``OBSERVABLE[/l0]=VALUE[@F=FORCE | @U=DISPLACEMENT]``::
+A :class:`Target` asks for one observable at a load, of a named stable state of a tube with
+bistable folds, or for the first instability under force control; its text form is
+``OBSERVABLE[/l0]=VALUE[@F=FORCE | @U=DISPLACEMENT | @state=LABEL]``::
 
     u_z/l0=0.06@F=1.6       u_z / l0 = 0.06 at the end force F = 1.6 N  (l0 = N l)
     u_r=-0.2@U=3            u_r = −0.2 mm at the load-point displacement U = 3 mm
     force=1.2@U=2           the reaction 1.2 N at U = 2 mm
+    u_z/l0=0.9@state=66     u_z / l0 = 0.9 in the stable state 66 at zero end load
     limit_force=1.5         the first-instability force F* = 1.5 N
     limit_displacement=0.4  its load-point displacement U* = 0.4 mm
 
@@ -21,7 +23,9 @@ valid ranges to minimise Σ ((y_i − t_i) / s_i)², s_i = max(|t_i|, :data:`SCA
 :func:`~biplan.analysis.limit_point.limit_point_sensitivity`). Each evaluation re-solves the
 targets' states from the previous design's (a continuation in the design); a state that cannot
 be followed is found again from the relaxed reference
-(:func:`~biplan.analysis.reached.reached_state`). Several starts (the given design, then points
+(:func:`~biplan.analysis.reached.reached_state`), and a named state that cannot be followed
+(or that changed its fold states or lost its stability) from its own seed
+(:func:`~biplan.analysis.states.relax_state`). Several starts (the given design, then points
 drawn in ±:data:`SPREAD` around it within the ranges) are tried until one meets every target.
 """
 
@@ -35,21 +39,27 @@ import numpy as np
 
 from biplan._errors import BiplanError, ConfigError, ConvergenceError, check_finite
 from biplan.analysis._parameters import ParameterSet, design_parameters
+from biplan.analysis.labels import bistable_folds, bits_to_label, label_to_bits
 from biplan.analysis.limit_point import LimitPoint, limit_point_sensitivity, locate_limit_point
 from biplan.analysis.reached import reached_state
 from biplan.analysis.sensitivity import Observable, eigen_weights, total_derivatives
+from biplan.analysis.stability import Verdict, classify
+from biplan.analysis.states import relax_state, state_bits
 from biplan.assembly import Load, Model
 from biplan.geometry import Tube
 from biplan.solvers.newton import Newton, Solution, solve_equilibrium
 
-__all__ = ["DesignResult", "Target", "inverse_design"]
+__all__ = ["DesignResult", "Target", "check_targets", "inverse_design"]
 
 #: Smallest residual scale s_i [target units].
 SCALE_FLOOR = 1e-3
 #: Relative spread of the random starts around the given design.
 SPREAD = 0.3
+#: Scaled residual of every target at a design where a target's state is lost.
+LOST = 1e3
 _LIMITS = (Observable.LIMIT_FORCE, Observable.LIMIT_DISPLACEMENT)
-_SYNTAX = re.compile(r"^\s*(\w+)(/l0)?\s*=\s*([^@\s]+)\s*(?:@\s*([FU])\s*=\s*(\S+))?\s*$")
+_SYNTAX = re.compile(r"^\s*(\w+)(/l0)?\s*=\s*([^@\s]+)\s*(?:@\s*(F|U|state)\s*=\s*(\S+))?\s*$")
+_VALID = "OBSERVABLE[/l0]=VALUE[@F=FORCE|@U=DISPLACEMENT|@state=LABEL], e.g. u_z/l0=0.06@F=1.6"
 
 
 @dataclass(frozen=True)
@@ -62,36 +72,50 @@ class Target:
     value : float
         Wanted value [observable unit, or 1 when ``per_length``].
     load : Load or None
-        Where (None for the limit-point observables).
+        Where (None for the limit-point observables; zero end force for a named state).
     per_length : bool
         The observable divided by l0 = N l (u_z/l0, u_r/l0).
+    state : str or None
+        Hexadecimal label of a stable state at zero end load (:mod:`biplan.analysis.labels`).
     """
 
     observable: Observable
     value: float
     load: Load | None = None
     per_length: bool = False
+    state: str | None = None
 
     def __post_init__(self) -> None:
         limit = self.observable in _LIMITS
-        if limit and self.load is not None:
+        if limit and (self.load is not None or self.state is not None):
             raise ConfigError("target", self.label, f"no load for {self.observable.value}")
         if not limit and self.load is None:
             raise ConfigError("target", self.label, "a load: OBSERVABLE=VALUE@F=… or @U=…")
+        if self.state is not None and (
+            self.load is None or self.load.is_displacement_controlled or float(self.load.force)
+        ):
+            raise ConfigError("target", self.label, "a named state at zero end force")
 
     @classmethod
     def parse(cls, text: str) -> Target:
         """A target from ``OBSERVABLE[/l0]=VALUE[@F=FORCE | @U=DISPLACEMENT]``."""
         match = _SYNTAX.match(text)
-        valid = "OBSERVABLE[/l0]=VALUE[@F=FORCE|@U=DISPLACEMENT], e.g. u_z/l0=0.06@F=1.6"
         if match is None:
-            raise ConfigError("target", text, valid)
+            raise ConfigError("target", text, _VALID)
         name, per, value, kind, at = match.groups()
         try:
             obs = Observable(name)
         except ValueError:
             names = ", ".join(o.value for o in Observable)
             raise ConfigError("target", text, f"an observable among {names}") from None
+        if kind == "state":
+            if not re.fullmatch(r"[0-9A-Fa-f]+", at):
+                raise ConfigError("target", text, "a hexadecimal state label after @state=")
+            try:
+                number = check_finite("target", float(value))
+            except ValueError:
+                raise ConfigError("target", text, _VALID) from None
+            return cls(obs, number, Load.of_force(0.0), per is not None, at.upper())
         try:
             number = check_finite("target", float(value))
             load = None
@@ -99,7 +123,7 @@ class Target:
                 x = check_finite("target", float(at))
                 load = Load.of_force(x) if kind == "F" else Load.of_displacement(x)
         except ValueError:
-            raise ConfigError("target", text, valid) from None
+            raise ConfigError("target", text, _VALID) from None
         return cls(obs, number, load, per is not None)
 
     @property
@@ -108,6 +132,8 @@ class Target:
         name = self.observable.value + ("/l0" if self.per_length else "")
         if self.load is None:
             return f"{name}={self.value:g}"
+        if self.state is not None:
+            return f"{name}={self.value:g}@state={self.state}"
         if self.load.is_displacement_controlled:
             return f"{name}={self.value:g}@U={float(self.load.displacement):g}"
         return f"{name}={self.value:g}@F={float(self.load.force):g}"
@@ -197,7 +223,10 @@ class _Evaluator:
             sens = limit_point_sensitivity(moved, self.limit, tuple(names))
             row = sens.observables.index(t.observable)
             return float(sens.values[row]), sens.derivatives[row]
-        state = _follow(moved, self.states.get(i), t.load)
+        if t.state is not None:
+            state = _follow_state(moved, self.states.get(i), t.state)
+        else:
+            state = _follow(moved, self.states.get(i), t.load)
         self.states[i] = state
         pset = design_parameters(moved, t.load)
         weights = None
@@ -217,6 +246,20 @@ def _follow(model: Model, previous: Solution | None, load: Load) -> Solution:
         if sol.converged:
             return sol
     return reached_state(model, load)
+
+
+def _follow_state(model: Model, previous: Solution | None, label: str) -> Solution:
+    """The named stable state followed from the previous design's while it keeps its fold
+    states and its stability, else relaxed anew from its seed."""
+    if previous is not None:
+        sol = solve_equilibrium(model, Newton(atol=1e-12), previous, Load.of_force(0.0))
+        if (
+            sol.converged
+            and bits_to_label(state_bits(model, sol.q)) == label
+            and classify(model, sol).verdict is Verdict.STABLE
+        ):
+            return sol
+    return relax_state(model, label)
 
 
 def _follow_limit(model: Model, previous: LimitPoint | None) -> LimitPoint:
@@ -251,6 +294,20 @@ def _inside(low: np.ndarray, high: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     span = np.where(np.isfinite(high - low), high - low, np.abs(low) + 1.0)
     margin = 1e-6 * np.where(np.isfinite(span), span, 1.0)
     return low + margin, high - margin
+
+
+def check_targets(tube: Tube, targets: tuple[Target, ...]) -> None:
+    """Refuse a named-state target whose label cannot name a state of ``tube`` (ConfigError)."""
+    n_bits = len(bistable_folds(tube))
+    for t in targets:
+        if t.state is None:
+            continue
+        if not n_bits:
+            raise ConfigError("target", t.label, "@state= on a tube with bistable folds")
+        try:
+            label_to_bits(t.state, n_bits)
+        except ConfigError as err:
+            raise ConfigError("target", t.label, f"a state label of {err.valid}") from None
 
 
 def inverse_design(
@@ -306,9 +363,30 @@ def inverse_design(
     cols = [pset.index(name) for name in vary]
     if len(pset.parameters) - 1 in cols:
         raise ConfigError("vary", "load.force", "design parameters (the load is in the targets)")
+    check_targets(model.tube, wanted)
     goal = np.asarray([t.value for t in wanted])
     scale = np.maximum(np.abs(goal), SCALE_FLOOR)
     evaluate = _Evaluator(model, wanted, pset, cols)
+    lost: list[str] = []
+
+    def residual(x: np.ndarray) -> np.ndarray:
+        # A design where a target's state is lost (a named state no longer stable, a branch
+        # that cannot be followed) counts as far from every target: the trust region shrinks.
+        try:
+            return (evaluate(x)[0] - goal) / scale
+        except BiplanError as err:
+            if evaluate.last is None:
+                raise
+            lost.append(str(err))
+            return np.full(goal.size, LOST)
+
+    def jacobian(x: np.ndarray) -> np.ndarray:
+        try:
+            return evaluate(x)[1] / scale[:, None]
+        except BiplanError:
+            assert evaluate.last is not None
+            return evaluate.last[2] / scale[:, None]
+
     low, high = _inside(*_bounds(pset, cols))
     best: tuple[float, np.ndarray, str] | None = None
     tried = 0
@@ -316,9 +394,9 @@ def inverse_design(
         tried += 1
         try:
             fit = least_squares(
-                lambda x: (evaluate(x)[0] - goal) / scale,
+                residual,
                 x0,
-                jac=lambda x: evaluate(x)[1] / scale[:, None],
+                jac=jacobian,
                 bounds=(low, high),
                 x_scale=np.maximum(np.abs(x0), 1e-3),
                 xtol=1e-14, ftol=1e-14, gtol=1e-14,
@@ -353,5 +431,5 @@ def inverse_design(
         tube=pset.tube_at(model.tube, v),
         iterations=evaluate.count,
         starts=tried,
-        message=note,
+        message=note + (f"; {len(lost)} trial designs lost a target's state" if lost else ""),
     )

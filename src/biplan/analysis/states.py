@@ -19,24 +19,33 @@ from __future__ import annotations
 import itertools
 import time
 from collections.abc import Callable
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
-from biplan._errors import ConfigError, check_integer, check_range
+from biplan._errors import ConfigError, ConvergenceError, check_integer, check_range
 from biplan._jax import jnp
-from biplan.analysis.labels import bistable_folds, bits_to_label
-from biplan.assembly import Load, Model
+from biplan.analysis.labels import bistable_folds, bits_to_label, label_to_bits
+from biplan.analysis.stability import Verdict, classify
+from biplan.assembly import Load, Model, phase_fractions
 from biplan.geometry import FoldRef
 from biplan.solvers._relaxkernel import compiled_relax
-from biplan.solvers.newton import Newton, Status
+from biplan.solvers.newton import Newton, Solution, Status, solve_equilibrium
 from biplan.solvers.observe import STABILITY_TOL, observe_batch
 
 if TYPE_CHECKING:
     from biplan.analysis.catalogue import StateCatalogue
 
-__all__ = ["Enumeration", "SeedOutcome", "StableState", "enumerate_states", "fold_vector_index"]
+__all__ = [
+    "Enumeration",
+    "SeedOutcome",
+    "StableState",
+    "enumerate_states",
+    "fold_vector_index",
+    "relax_state",
+    "state_bits",
+]
 
 #: Largest number of bistable folds enumerated exhaustively (2¹⁸ seeds).
 MAX_FOLDS = 18
@@ -134,11 +143,13 @@ def fold_vector_index(model: Model, fold: FoldRef) -> int:
 
 
 def _seed_targets(
-    model: Model, folds: tuple[FoldRef, ...]
+    model: Model, folds: tuple[FoldRef, ...], seeds: np.ndarray | None = None
 ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """(seeds, target openings, mask): every 2ⁿ bit combination unless ``seeds`` are given."""
     tube = model.tube
     laws = list(tube.helical_laws) + list(tube.circular_laws)
-    seeds = np.array(list(itertools.product((0, 1), repeat=len(folds))), dtype=int)
+    if seeds is None:
+        seeds = np.array(list(itertools.product((0, 1), repeat=len(folds))), dtype=int)
     target = np.zeros((len(seeds), len(laws)))
     mask = np.zeros(len(laws))
     for bit, fold in enumerate(folds):
@@ -180,6 +191,68 @@ def relax_seeds(
         if progress is not None:
             progress(hi, k)
     return np.concatenate(zs), np.concatenate(status), np.concatenate(residual)
+
+
+def state_bits(model: Model, q: np.ndarray) -> tuple[int, ...]:
+    """Fold-state bits of coordinates ``q`` (free end first,
+    :func:`~biplan.analysis.labels.bistable_folds`): 1 where the open branch occupies more of
+    the fold's length than the closed one (SI, "Construction of a state transition diagram")."""
+    frac = np.asarray(phase_fractions(model.layout, model.params, jnp.asarray(q)))
+    index = [fold_vector_index(model, f) for f in bistable_folds(model.tube)]
+    return tuple(int(frac[i, 2] > frac[i, 0]) for i in index)
+
+
+def relax_state(
+    model: Model, label: str, settings: Enumeration | None = None, *, atol: float = 1e-12
+) -> Solution:
+    """The stable state ``label`` at zero end load, relaxed from its own seed.
+
+    The seed with the label's bits goes through the enumeration's relaxation
+    (:func:`relax_seeds`, the same compiled kernel), then Newton polishes it to ‖r‖∞ < ``atol``.
+
+    Parameters
+    ----------
+    model : Model
+        A tube with bistable folds.
+    label : str
+        Hexadecimal state label (:mod:`biplan.analysis.labels`), e.g. ``"1B"``.
+    settings : Enumeration, optional
+    atol : float
+        Residual tolerance of the returned equilibrium [N, mm].
+
+    Returns
+    -------
+    Solution
+        Converged, stable, with the label's bits.
+
+    Raises
+    ------
+    ConfigError
+        A tube without bistable folds, or a label that is not one of its states' labels.
+    ConvergenceError
+        The seed's relaxation failed, or reached an unstable equilibrium or other fold states.
+    """
+    settings = settings or Enumeration()
+    folds = bistable_folds(model.tube)
+    if not folds:
+        raise ConfigError("model", model.tube.name, "a tube with at least one bistable fold law")
+    bits = label_to_bits(label, len(folds))
+    _, target, mask = _seed_targets(model, folds, np.array([bits], dtype=int))
+    z, status, _ = relax_seeds(model, target, mask, settings)
+    if int(status[0]) != Status.CONVERGED.value or not np.all(np.isfinite(z[0])):
+        raise ConvergenceError(f"state {label}: the relaxation of its seed did not converge")
+    sol = solve_equilibrium(model, replace(settings.newton, atol=atol), z[0], Load.of_force(0.0))
+    if not sol.converged:
+        raise ConvergenceError(f"state {label}: Newton from the relaxed seed: {sol.message}")
+    reached = state_bits(model, sol.q)
+    if reached != bits:
+        raise ConvergenceError(
+            f"state {label}: its seed relaxed to {bits_to_label(reached)} (not stable as {label})"
+        )
+    verdict = classify(model, sol).verdict
+    if verdict is not Verdict.STABLE:
+        raise ConvergenceError(f"state {label}: its equilibrium is {verdict.value}, not stable")
+    return sol
 
 
 def enumerate_states(

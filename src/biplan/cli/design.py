@@ -2,9 +2,10 @@
 
 Inverse design (:func:`~biplan.analysis.inverse.inverse_design`): varies the named design
 parameters of the tube in CONFIG, within their valid ranges, until its response meets every
-target. A target is ``OBSERVABLE[/l0]=VALUE[@F=FORCE | @U=DISPLACEMENT]`` (``u_z/l0=0.06@F=1.6``,
-``u_r=-0.2@U=3``, ``limit_force=1.5``; :class:`~biplan.analysis.inverse.Target`); a parameter
-is named as in the configuration (``laws.helical.stiffness``, ``geometry.helical_angle``,
+target. A target is ``OBSERVABLE[/l0]=VALUE[@F=FORCE | @U=DISPLACEMENT | @state=LABEL]``
+(``u_z/l0=0.06@F=1.6``, ``u_r=-0.2@U=3``, ``limit_force=1.5``, ``u_z/l0=0.9@state=66`` for a
+named stable state of a tube with bistable folds; :class:`~biplan.analysis.inverse.Target`); a
+parameter is named as in the configuration (``laws.helical.stiffness``, ``geometry.helical_angle``,
 ``laws.circular.transitions[0]``, …; :mod:`biplan.analysis._parameters`).
 
 Writes into DIR:
@@ -50,7 +51,9 @@ def design(
     ],
     target: Annotated[
         list[str],
-        typer.Option(help="OBSERVABLE\\[/l0]=VALUE\\[@F=FORCE|@U=DISPLACEMENT] (repeatable)."),
+        typer.Option(
+            help="OBSERVABLE\\[/l0]=VALUE\\[@F=FORCE|@U=DISPLACEMENT|@state=LABEL] (repeatable)."
+        ),
     ],
     vary: Annotated[
         list[str], typer.Option(help="Design parameter to vary, e.g. laws.helical.stiffness.")
@@ -64,7 +67,7 @@ def design(
     design_sensitivity.csv."""
     import biplan
     from biplan.analysis._parameters import design_parameters
-    from biplan.analysis.inverse import Target, inverse_design
+    from biplan.analysis.inverse import Target, check_targets, inverse_design
     from biplan.io.config import dump_config
 
     check_integer("--starts", starts, low=1, high=MAX_STARTS)
@@ -73,6 +76,8 @@ def design(
         targets = tuple(Target.parse(t) for t in target)
     output_directory(out, files=OUTPUT_FILES)
     model = biplan.Model(biplan.load_config(config))
+    with options_named({"target": "--target"}):
+        check_targets(model.tube, targets)
     names = design_parameters(model, biplan.Load.of_force(0.0)).names[:-1]
     for k, name in enumerate(vary):
         if name not in names:

@@ -336,15 +336,19 @@ def _stage_stability_map(ctx: _Context) -> None:
 
 
 def _stage_states(ctx: _Context) -> None:
-    """Runs ``biplan states`` on the fully bistable design in a child process (with a time
-    limit: a hung or crashed enumeration cannot stop the other stages), then reads its files."""
+    """Runs ``biplan states`` on the fully bistable design, with the laws inferred from Fig. 4
+    (``designs.FullyBistableLaws.INFERRED_FIG4``: they meet the paper's u_z/l0 of 66 and 1B,
+    and every statement the provisional laws meet; docs/fidelity.md), in a child process
+    (with a time limit: a hung or crashed enumeration cannot stop the other stages), then
+    reads its files."""
     import biplan
     from biplan.io.config import dump_config
 
     folder = ctx.out / "states"
     folder.mkdir(parents=True, exist_ok=True)
     config = folder / "fully_bistable.toml"
-    config.write_text(dump_config(biplan.designs.fully_bistable()), encoding="utf-8")
+    tube = biplan.designs.fully_bistable(laws=biplan.designs.FullyBistableLaws.INFERRED_FIG4)
+    config.write_text(dump_config(tube), encoding="utf-8")
     command = [sys.executable, "-m", "biplan", "states", str(config), "--out", str(folder), "-q"]
     try:
         done = subprocess.run(

@@ -54,6 +54,8 @@ RAMP_FORCE = 1.6
 PAPER_B = 0.58
 #: The paper's number of stable states of the four-module fully bistable MFT (SI S11).
 PAPER_N_STATES = 34
+#: The paper's u_z/l0 of the iso-elongation sub-branch of 66 and 1B (main text, Fig. 4 B).
+PAPER_SUB_BRANCH = 0.9
 #: The paper's states named in the main text (Fig. 4 A–B).
 PAPER_STATES = ("00", "2A", "1B", "66")
 #: The paper's pathways (start, target).
@@ -492,7 +494,7 @@ def _state_count(r: Results) -> Finding:
         f"{n} stable states from {s.n_seeds} seeds",
         grade_distance(abs(n - PAPER_N_STATES) + abs(s.n_seeds - 128), 0, 7),
         f"paper: {PAPER_N_STATES} of 128; the fully bistable laws are not given in the paper "
-        "(designs.fully_bistable() uses provisional ones; MODEL.md §17)",
+        "(inferred from its u_z/l0 of 66 and 1B; docs/fidelity.md)",
     )
 
 
@@ -523,14 +525,15 @@ def _shared_branch(r: Results) -> Finding:
         abs(abs(s.Theta[i]) - 2 / 3) < 0.1,
         abs(abs(s.Theta[j]) - 2 / 3) < 0.1,
         s.n_open_circular[i] == s.n_open_circular[j] and abs(s.u_z[i] - s.u_z[j]) < 0.05,
+        abs(s.u_z[i] - PAPER_SUB_BRANCH) < 0.05 and abs(s.u_z[j] - PAPER_SUB_BRANCH) < 0.05,
         abs(s.u_r[j]) > abs(s.u_r[i]),
     ]
     return Finding(
         f"66: Θ = {s.Theta[i]:.2f}, u_z/l0 = {s.u_z[i]:.3f}, u_r/l0 = {s.u_r[i]:.3f}; "
         f"1B: Θ = {s.Theta[j]:.2f}, u_z/l0 = {s.u_z[j]:.3f}, u_r/l0 = {s.u_r[j]:.3f}",
         grade(checks),
-        "66 and 1B at Θ ≈ 0.67, one iso-elongation sub-branch, 1B deflecting more "
-        "(paper u_z/l0 = 0.9): " + "/".join("yes" if c else "no" for c in checks),
+        "66 and 1B at Θ ≈ 0.67, one iso-elongation sub-branch, at u_z/l0 = 0.9 (± 0.05), "
+        "1B deflecting more: " + "/".join("yes" if c else "no" for c in checks),
     )
 
 
