@@ -63,13 +63,15 @@ def test_round_trip_recovers_the_laws(model1):
     assert result.jacobian.shape == (2, 2)
 
 
-def test_stiffness_scaling_closed_form():
+@pytest.mark.parametrize("n_modules", [1, 2], ids=["single fold pair", "series chain"])
+def test_stiffness_scaling_closed_form(n_modules):
     """All laws linear: the energy is homogeneous of degree one in (k_h, k_c), so scaling both
     by s keeps the state at a prescribed U and scales its reaction by s. Asking for twice the
-    force at the same deflection u_r has the closed-form answer (2 k_h, 2 k_c)."""
+    force at the same deflection u_r has the closed-form answer (2 k_h, 2 k_c), for one module
+    and for a chain of two in series."""
 
     def tube(kh: float, kc: float) -> biplan.Tube:
-        return make_tube(1, helical=biplan.LinearLaw(kh), circular=biplan.LinearLaw(kc))
+        return make_tube(n_modules, helical=biplan.LinearLaw(kh), circular=biplan.LinearLaw(kc))
 
     model = biplan.Model(tube(1.3, 0.9))
     load = biplan.Load.of_displacement(0.4)
@@ -104,6 +106,49 @@ def test_named_state_round_trip(model4):
         inverse_design(model4, ("u_z=0.1@state=1FF",), ("laws.circular.transitions[1]",))
 
 
+def test_semi_bistable_round_trip_at_1_6_n(model6):
+    """The paper's design: perturb k_h (1.3 → 1.5) and k₁ (0.9 → 1.0), ask for the original
+    u_z and u_r at F = 1.6 N, recover the original laws."""
+    from biplan.analysis.reached import reached_state
+
+    load = biplan.Load.of_force(1.6)
+    e = model6.endpoint(reached_state(model6, load).q)
+    targets = (f"u_z={e.u_z!r}@F=1.6", f"u_r={e.u_r!r}@F=1.6")
+    tube = model6.tube
+    law = tube.circular_laws[0]
+    moved = replace(law, stiffness=(1.0, *law.stiffness[1:]))
+    tube = replace(tube, helical_laws=(biplan.LinearLaw(1.5),) * tube.n_modules)
+    tube = replace(tube, circular_laws=(moved,) * len(tube.circular_laws))
+    result = inverse_design(biplan.Model(tube), targets, VARY, tolerance=1e-9)
+    assert result.success, result
+    np.testing.assert_allclose(result.values, [1.3, 0.9], rtol=1e-6)
+
+
+def _contradiction(model1: biplan.Model) -> tuple[str, str]:
+    """u_z at 0.3 N wanted both 20 % below and 20 % above its value: no design meets both."""
+    state = biplan.solve_equilibrium(model1, None, None, biplan.Load.of_force(0.3))
+    u_z = model1.endpoint(state.q).u_z
+    return (f"u_z={0.8 * u_z!r}@F=0.3", f"u_z={1.2 * u_z!r}@F=0.3")
+
+
+def test_unmet_target_tries_every_start_and_returns_the_best(model1):
+    """Contradictory targets: every start is tried and the best one (the smallest scaled
+    residual, between the two targets) is returned, not met."""
+    targets = _contradiction(model1)
+    vary = ("laws.helical.stiffness",)
+    result = inverse_design(model1, targets, vary, starts=3, max_evaluations=15)
+    assert not result.success and result.starts == 3 and result.values[0] > 0
+    low, high = sorted(Target.parse(t).value for t in targets)
+    assert low < result.achieved[0] < high
+
+    def cost(r) -> float:
+        goal = np.array([Target.parse(t).value for t in targets])
+        return float(np.sum(((r.achieved - goal) / goal) ** 2))
+
+    first = inverse_design(model1, targets, vary, starts=1, max_evaluations=15)
+    assert first.starts == 1 and cost(result) <= cost(first) + 1e-12
+
+
 def test_limit_force_target(model1):
     wanted = locate_limit_point(model1).force + 0.1
     result = inverse_design(
@@ -132,6 +177,21 @@ def test_cli_writes_the_design(tmp_path: Path, model1):
     assert found.circular_laws[0].stiffness[0] == pytest.approx(0.9, rel=1e-6)
     assert "True" in (out / "design.csv").read_text()
     assert len((out / "design_sensitivity.csv").read_text().splitlines()) == 1 + 2 * 2
+
+
+def test_cli_unmet_target_exits_1_with_the_best_design(tmp_path: Path, capsys, model1):
+    config = tmp_path / "one.toml"
+    config.write_text(dump_config(model1.tube))
+    out = tmp_path / "out"
+    args = ["design", str(config), "--vary", "laws.helical.stiffness", "--starts", "1"]
+    for t in _contradiction(model1):
+        args += ["--target", t]
+    with pytest.raises(SystemExit) as info:
+        main([*args, "--out", str(out), "--quiet"])
+    assert info.value.code == 1
+    assert "2 of 2 targets not met" in " ".join(capsys.readouterr().err.split())
+    assert load_config(out / "design.toml").helical_laws[0].stiffness > 0
+    assert "False" in (out / "design.csv").read_text()
 
 
 @pytest.mark.parametrize(
