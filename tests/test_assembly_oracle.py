@@ -19,7 +19,8 @@ import biplan
 from biplan import _oracle
 from biplan import assembly as asm
 from biplan._jax import jax, jnp
-from biplan.options import ChainOffset, ContactForm, ModelOptions
+from biplan.geometry import chain
+from biplan.options import ChainOffset, ContactForm, ModelOptions, TpcSign
 from conftest import make_tube, random_configuration
 
 TOL = 1e-10
@@ -32,6 +33,7 @@ LAYOUTS = {
         ModelOptions(contact=ContactForm.MINIMUM)
     ),
     "paper chain offset": lambda: make_tube(3).with_options(chain_offset=ChainOffset.PAPER),
+    "printed TPC sign": lambda: make_tube(3).with_options(tpc_sign=TpcSign.AS_PRINTED),
 }
 
 LOADS = {
@@ -107,3 +109,22 @@ def test_model_hessian_and_jacobians_equal_global_autodiff(model6, rng):
     assert _relative(model6.hessian(q), h) < TOL
     assert _relative(model6.constraint_jacobian(q), g) < TOL
     assert _relative(model6.contact_jacobian(q), c) < TOL
+
+
+def test_printed_tpc_sign_mirrors_the_first_field_of_each_tpc():
+    """TpcSign.AS_PRINTED (SI Eq. VC_w as printed): at the split end of a TPC's first field
+    w = 2γ − w_geometric; every other field-end point is unchanged. Three modules S, M, S:
+    TPCs at the base and at 1|2, an SPC at 0|1."""
+    geometric = biplan.Model(make_tube(3))
+    printed = biplan.Model(make_tube(3).with_options(tpc_sign=TpcSign.AS_PRINTED))
+    q = random_configuration(geometric, np.random.default_rng(3))
+    w_g = np.asarray(geometric.kinematics(q).point_w)
+    w_p = np.asarray(printed.kinematics(q).point_w)
+    t = chain.tables(printed.layout)
+    kinds = [c.kind for c in printed.layout.connectors]
+    assert kinds == ["TPC", "SPC", "TPC"] and t.pt_flip.sum() == 2
+    assert not chain.tables(geometric.layout).pt_flip.any()
+    gamma = np.asarray(q)[3 * 3 + t.pt_conn]
+    np.testing.assert_allclose(w_p[t.pt_flip], 2 * gamma[t.pt_flip] - w_g[t.pt_flip], atol=1e-13)
+    np.testing.assert_array_equal(w_p[~t.pt_flip], w_g[~t.pt_flip])
+    assert np.all(np.abs(w_g[t.pt_flip] - gamma[t.pt_flip]) > 1e-6)  # the sign matters here

@@ -275,3 +275,17 @@ def test_grading_helpers() -> None:
     assert grade_distance(0.5, 0.0, 1.0) is Verdict.PARTLY
     assert grade_distance(2.0, 0.0, 1.0) is Verdict.NOT
     assert grade_distance(float("nan"), 0.0, 1.0) is Verdict.NOT
+
+
+def test_tpc_sign_is_checked_before_any_stage(tmp_path: Path, capsys) -> None:
+    from biplan.cli.main import EXIT_BIPLAN_ERROR
+    from biplan.cli.reproduce import TPC_SIGNS
+    from biplan.options import TpcSign
+
+    assert tuple(s.value for s in TpcSign) == TPC_SIGNS
+    with pytest.raises(SystemExit) as info:
+        main(["reproduce", "--quick", "--tpc-sign", "printed", "--out", str(tmp_path / "r")])
+    assert info.value.code == EXIT_BIPLAN_ERROR
+    lines = [line for line in capsys.readouterr().err.splitlines() if line.strip()]
+    assert len(lines) == 1 and "--tpc-sign" in lines[0] and "as_printed" in lines[0]
+    assert not (tmp_path / "r").exists()

@@ -68,6 +68,7 @@ class Topology(NamedTuple):
     point_lower_element: np.ndarray  # (Nc, P)
     point_rigid: np.ndarray  # (Nc, P) bool: the lower edge is the clamp or a rigid edge
     point_height: np.ndarray  # (Nc, P) z of a rigid lower edge, in units of l
+    point_flip: np.ndarray  # (Nc, P) bool: w ↦ 2γ − w (TpcSign.AS_PRINTED)
     field_start: np.ndarray  # (Nc, F) local point index
     field_end: np.ndarray  # (Nc, F)
     field_mask: np.ndarray  # (Nc, F) float 1/0
@@ -102,7 +103,7 @@ def topology(layout: TubeLayout) -> Topology:
     n, nc = layout.n_modules, layout.n_connectors
     module_dofs = 3 * np.arange(n, dtype=np.int32)[:, None] + np.arange(3, dtype=np.int32)
     minimum = layout.options.contact is ContactForm.MINIMUM
-    cols: dict[str, list[list[Any]]] = {k: [] for k in ("s", "ue", "le", "rig", "hl")}
+    cols: dict[str, list[list[Any]]] = {k: [] for k in ("s", "ue", "le", "rig", "hl", "fl")}
     fs, fe, gp, gr = [], [], [], []
     lower, upper, dofs = [], [], []
     contact_row = 2 * n
@@ -115,6 +116,7 @@ def topology(layout: TubeLayout) -> Topology:
         cols["le"].append(list(t.pt_lo_el[pts]))
         cols["rig"].append(list(t.pt_lo_rigid[pts]))
         cols["hl"].append(list(t.pt_lo_height[pts]))
+        cols["fl"].append(list(t.pt_flip[pts]))
         fields = np.flatnonzero(t.field_conn == c)
         fs.append(list(t.field_start[fields] - first))
         fe.append(list(t.field_end[fields] - first))
@@ -132,6 +134,7 @@ def topology(layout: TubeLayout) -> Topology:
     point_le, _ = _pad(cols["le"], 0, np.int32)
     point_rigid, _ = _pad(cols["rig"], True, bool)
     point_height, _ = _pad(cols["hl"], 0.0, float)
+    point_flip, _ = _pad(cols["fl"], False, bool)
     field_start, field_mask = _pad(fs, 0, np.int32)
     field_end, _ = _pad(fe, 0, np.int32)
     gap_point, gap_point_mask = _pad(gp, 0, np.int32)
@@ -149,6 +152,7 @@ def topology(layout: TubeLayout) -> Topology:
         point_le,
         point_rigid,
         point_height,
+        point_flip,
         field_start,
         field_end,
         field_mask,
@@ -206,16 +210,22 @@ def connector_points(
     rigid: Array,
     height: Array,
     pitch: Array,
+    flip: Array | None = None,
 ) -> Array:
     """Elongation w [mm] of a connector at its field-end points (point 0 is the seam).
 
-    w(s) = z_U(s) + Δ − z_L(s), Δ = γ + z_L(0) − z_U(0) (SI Eqs. VC_w, MODEL §7).
+    w(s) = z_U(s) + Δ − z_L(s), Δ = γ + z_L(0) − z_U(0) (SI Eqs. VC_w, MODEL §7); at the
+    points marked by ``flip`` (the first field's split end of a TPC under
+    ``TpcSign.AS_PRINTED``, a static table) 2γ − w instead.
     """
     lo, up, gam = x[:3], x[3:6], x[6]
     line = jax.vmap(chain.line_height, in_axes=(None, None, 0, 0, 0))
     z_up = line(up, ref_upper, upper_element, jnp.zeros_like(s), s)
     z_lo = jnp.where(rigid, height * pitch, line(lo, ref_lower, lower_element, pitch + 0.0 * s, s))
-    return z_up + (gam + z_lo[0] - z_up[0]) - z_lo
+    w = z_up + (gam + z_lo[0] - z_up[0]) - z_lo
+    if flip is not None:
+        w = jnp.where(flip, 2.0 * gam - w, w)
+    return w
 
 
 class ConnectorData(NamedTuple):
@@ -234,6 +244,7 @@ class ConnectorData(NamedTuple):
     gap_point: Array
     gap_point_mask: Array
     coeffs: Array  # (5,) circular law row
+    flip: Array | None = None  # (P,) bool, only under TpcSign.AS_PRINTED
 
 
 def connector_gaps(
@@ -250,6 +261,7 @@ def connector_gaps(
         d.rigid,
         d.height,
         pitch,
+        d.flip,
     )
     length = d.s[d.field_end] - d.s[d.field_start]
     energies = d.field_mask * law_kernels.field_energy(
@@ -310,6 +322,7 @@ def _connector_data(layout: TubeLayout, p: Any, ref: Array) -> ConnectorData:
         topo.gap_point,
         topo.gap_point_mask,
         p.circular,
+        jnp.asarray(topo.point_flip) if topo.point_flip.any() else None,
     )
 
 

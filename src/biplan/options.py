@@ -15,6 +15,7 @@ R3              ``chain_attachment``                          SPC: lower element
 R2              ``endpoint``                                  free-end edge, least squares
 W1              ``load_point``                                centroid of the free-end edge
 S1              ``weak_contacts_active``                      False (conservative)
+V1              ``tpc_sign``                                  geometric (SI sign flipped, §7)
 ==============  ===========================================  ==================================
 """
 
@@ -36,6 +37,7 @@ __all__ = [
     "MirrorConvention",
     "ModelOptions",
     "ModuleKind",
+    "TpcSign",
     "TransitionReading",
 ]
 
@@ -130,6 +132,21 @@ class LoadPoint(enum.Enum):
     SPLIT = "split"
 
 
+class TpcSign(enum.Enum):
+    """Sign of the x-dependent part of a TPC's first field (MODEL §7, SI Eq. VC_w).
+
+    ``GEOMETRIC``: w₁(x) = γ − x [tan φ₁⁽ˢ⁾ − tan φ₁⁽ᴹ⁾], the axial gap of the two edge lines
+    (consistent with the element geometry, as the second field and the SPC are).
+    ``AS_PRINTED``: the SI's printed w₁(x) = γ + x [tan φ₁⁽ˢ⁾ − tan φ₁⁽ᴹ⁾]. Inconsistent with
+    the element geometry: the two fields of a TPC then disagree by 2|x (tan φ₁⁽ˢ⁾ − tan φ₁⁽ᴹ⁾)|
+    at their shared split point. Selectable because the paper's maps may have been computed
+    with it (docs/fidelity.md, "The printed TPC sign").
+    """
+
+    GEOMETRIC = "geometric"
+    AS_PRINTED = "as_printed"
+
+
 _ENUMS: dict[str, type[enum.Enum]] = {
     "transition_reading": TransitionReading,
     "mirror": MirrorConvention,
@@ -139,6 +156,7 @@ _ENUMS: dict[str, type[enum.Enum]] = {
     "chain_attachment": ChainAttachment,
     "endpoint": EndpointDefinition,
     "load_point": LoadPoint,
+    "tpc_sign": TpcSign,
 }
 
 
@@ -149,7 +167,7 @@ class ModelOptions:
     Parameters
     ----------
     transition_reading, mirror, first_module, contact, chain_offset, chain_attachment,
-        endpoint, load_point
+        endpoint, load_point, tpc_sign
         Enum members or their string values.
     weak_contacts_active : bool
         Treat contacts with λ_∂ ≈ 0 and w ≈ 0 as active in the stability test (S1).
@@ -173,6 +191,7 @@ class ModelOptions:
     chain_attachment: ChainAttachment = ChainAttachment.ELEMENT
     endpoint: EndpointDefinition = EndpointDefinition.EDGE
     load_point: LoadPoint = LoadPoint.CENTROID
+    tpc_sign: TpcSign = TpcSign.GEOMETRIC
     weak_contacts_active: bool = False
     contact_smoothing: float = 1e-6
     smooth_min_width: float = 1e-3

@@ -42,7 +42,7 @@ import sys
 import time
 import traceback
 from collections.abc import Callable
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from pathlib import Path
 from typing import Annotated, Any
 
@@ -51,6 +51,7 @@ import typer
 from rich.console import Console
 from rich.markup import escape
 
+from biplan._errors import ConfigError
 from biplan.cli._checks import output_directory
 from biplan.io.reproduction import (
     CalibrationFacts,
@@ -69,6 +70,10 @@ DPI = 200
 #: End of the semi-bistable displacement sweep [mm]: past the last fold snap (≈ 8.7 mm), so
 #: that phase 2 is resolved (the synthetic MFT specimens also reach ≈ 11 mm).
 SWEEP_END = 11.0
+#: Values of ``--tpc-sign`` (those of :class:`biplan.options.TpcSign`; the options module is
+#: not imported here, it imports JAX).
+TPC_SIGNS = ("geometric", "as_printed")
+
 #: The figure files written, by figure key of :data:`biplan.io.reproduction.FIGURES`.
 FIGURE_FILES = {
     "fig3": (
@@ -96,6 +101,7 @@ class Settings:
     movie_frames: int
     time_step: float
     states_timeout: float
+    tpc_sign: str = "geometric"  # ModelOptions.tpc_sign of every design (MODEL §7, V1)
 
     @classmethod
     def quick(cls) -> Settings:
@@ -147,6 +153,15 @@ def _save(fig: Any, file: Path) -> None:
         plt.close(fig)
 
 
+def _semi(ctx: _Context) -> Any:
+    """The semi-bistable design under the run's TPC sign reading."""
+    import biplan
+    from biplan.options import TpcSign
+
+    options = biplan.ModelOptions(tpc_sign=TpcSign(ctx.settings.tpc_sign))
+    return biplan.designs.semi_bistable(options)
+
+
 def _linspace(spec: tuple[float, float, int]) -> list[float]:
     return [float(x) for x in np.linspace(*spec)]
 
@@ -157,7 +172,7 @@ def _stage_semi(ctx: _Context) -> None:
     from biplan.analysis.quasistatic import displacement_sweep
     from biplan.io.results import save_netcdf, save_sweep_csv, sweep_dataset
 
-    tube = biplan.designs.semi_bistable()
+    tube = _semi(ctx)
     model = biplan.Model(tube)
     ref = biplan.relaxed_reference(model)
     n = ctx.settings.sweep_steps
@@ -296,7 +311,6 @@ def _stage_design_map(ctx: _Context) -> None:
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
-    import biplan
     from biplan.analysis.design_map import ForceRamp, ResponseEvaluator
     from biplan.analysis.sweeps import Grid
     from biplan.plot.maps import design_map
@@ -304,7 +318,7 @@ def _stage_design_map(ctx: _Context) -> None:
     s = ctx.settings
     grid = Grid.of(b=_linspace(s.design_b), C=_linspace(s.design_c))
     ev = ResponseEvaluator(ForceRamp(n_steps=s.ramp_steps))
-    ds = run_map_python(biplan.designs.semi_bistable(), grid, ev, ctx.out / "design_map", 4)
+    ds = run_map_python(_semi(ctx), grid, ev, ctx.out / "design_map", 4)
     fig, axes = plt.subplots(1, 2, figsize=(7.0, 2.8), layout="constrained")
     design_map(ds, "u_z", ax=axes[0])
     design_map(ds, "u_r", ax=axes[1])
@@ -318,7 +332,6 @@ def _stage_stability_map(ctx: _Context) -> None:
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
-    import biplan
     from biplan.analysis.stability_map import StabilityEvaluator
     from biplan.analysis.sweeps import Grid, apply_values
     from biplan.io.reproduction import PAPER_B
@@ -326,7 +339,7 @@ def _stage_stability_map(ctx: _Context) -> None:
     from biplan.plot.response import COLUMN_FIGSIZE
 
     s = ctx.settings
-    tube = apply_values(biplan.designs.semi_bistable(), {"b": PAPER_B})
+    tube = apply_values(_semi(ctx), {"b": PAPER_B})
     grid = Grid.of(C=_linspace(s.stability_c), displacement=_linspace(s.stability_u))
     ds = run_map_python(tube, grid, StabilityEvaluator(), ctx.out / "stability_map", grid.shape[1])
     fig, ax = plt.subplots(figsize=COLUMN_FIGSIZE, layout="constrained")
@@ -347,7 +360,12 @@ def _stage_states(ctx: _Context) -> None:
     folder = ctx.out / "states"
     folder.mkdir(parents=True, exist_ok=True)
     config = folder / "fully_bistable.toml"
-    tube = biplan.designs.fully_bistable(laws=biplan.designs.FullyBistableLaws.INFERRED_FIG4)
+    from biplan.options import ChainAttachment, TpcSign
+
+    sign = TpcSign(ctx.settings.tpc_sign)
+    options = biplan.ModelOptions(chain_attachment=ChainAttachment.EDGE_FIT, tpc_sign=sign)
+    laws = biplan.designs.FullyBistableLaws.INFERRED_FIG4
+    tube = biplan.designs.fully_bistable(options, laws=laws)
     config.write_text(dump_config(tube), encoding="utf-8")
     command = [sys.executable, "-m", "biplan", "states", str(config), "--out", str(folder), "-q"]
     try:
@@ -471,7 +489,7 @@ def _stage_movie(ctx: _Context) -> None:
     from biplan.io.results import dataset, save_netcdf
     from biplan.plot.animation import animate
 
-    model = ctx.semi_model or biplan.Model(biplan.designs.semi_bistable())
+    model = ctx.semi_model or biplan.Model(_semi(ctx))
     ref = biplan.relaxed_reference(model)
     probe = biplan.solve_equilibrium(model, None, ref, biplan.Load.of_force(0.8))
     alpha = rayleigh_for_damping_ratio(natural_modes(model, probe), 0.05)
@@ -582,11 +600,21 @@ def reproduce(
         ),
     ] = None,
     quiet: Annotated[bool, typer.Option("--quiet", "-q", help="No progress bar.")] = False,
+    tpc_sign: Annotated[
+        str,
+        typer.Option(
+            "--tpc-sign",
+            help="Sign of a TPC's first field: geometric (MODEL §7) or as_printed (the SI's "
+            "Eq. VC_w as printed; docs/fidelity.md).",
+        ),
+    ] = "geometric",
 ) -> None:
     """Regenerate the paper's figures (Fig. 3, Fig. 4, the supplement's distributions and
     CFT calibration, Movie S1) and write REPRODUCTION.md with a computed verdict per claim."""
     from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, TimeElapsedColumn
 
+    if tpc_sign not in TPC_SIGNS:
+        raise ConfigError("--tpc-sign", tpc_sign, f"one of {', '.join(TPC_SIGNS)}")
     output_directory(out)
     try:
         out.mkdir(parents=True, exist_ok=True)
@@ -594,6 +622,7 @@ def reproduce(
         raise typer.BadParameter(f"cannot create {out}: {err}", param_hint="--out") from None
     (out / "errors.log").unlink(missing_ok=True)
     settings = Settings.quick() if quick else Settings.full()
+    settings = replace(settings, tpc_sign=tpc_sign)
     console = Console(stderr=True, highlight=False)
     progress = Progress(
         TextColumn("[bold]{task.description}"),
@@ -623,6 +652,8 @@ def reproduce(
             results.movie.file
         ]
     command = "biplan reproduce --out DIR" + (" --quick" if quick else "")
+    if tpc_sign != "geometric":
+        command += f" --tpc-sign {tpc_sign}"
     if measured is not None:
         command += f" --measured {measured}"
     mode = "quick (coarse grids, short runs)" if quick else "full (the paper's resolution)"

@@ -37,7 +37,7 @@ from biplan.geometry.module import (
     rotation,
 )
 from biplan.geometry.tube import TubeLayout
-from biplan.options import ChainAttachment, ChainOffset, EndpointDefinition, LoadPoint
+from biplan.options import ChainAttachment, ChainOffset, EndpointDefinition, LoadPoint, TpcSign
 
 __all__ = [
     "Endpoint",
@@ -88,6 +88,7 @@ class Tables(NamedTuple):
     field_start: np.ndarray  # (F,)
     field_end: np.ndarray
     field_conn: np.ndarray
+    pt_flip: np.ndarray  # (K,) bool: w ↦ 2γ − w (TpcSign.AS_PRINTED: a TPC's first field end)
     contact_pt: np.ndarray  # (n_cc,) points carrying a contact condition
     contact_conn: np.ndarray
     end_segments: tuple  # free-end edge: ((element, node0, node1), ...)
@@ -97,7 +98,8 @@ class Tables(NamedTuple):
 def tables(layout: TubeLayout) -> Tables:
     """Build the static tables of a layout."""
     cols: dict[str, list] = {k: [] for k in ("c", "s", "um", "ue", "lm", "le", "rig", "hl")}
-    seam, fs, fe, fc, cp, cc = [], [], [], [], [], []
+    seam, fs, fe, fc, cp, cc, flip = [], [], [], [], [], [], []
+    printed = layout.options.tpc_sign is TpcSign.AS_PRINTED
     for c, spec in enumerate(layout.connectors):
         first = len(cols["c"])
         seam.append(first)
@@ -114,6 +116,9 @@ def tables(layout: TubeLayout) -> Tables:
             fs.append(first + 2 * j)
             fe.append(first + 2 * j + 1)
             fc.append(c)
+            # SI Eq. VC_w as printed: the first field of a TPC (s from the seam to the split,
+            # element 1) is mirrored about γ; its seam end (w = γ) is unchanged.
+            flip += [False, printed and spec.kind == "TPC" and j == 0]
         for field, side in spec.contact_points():
             cp.append(first + 2 * field + side)
             cc.append(c)
@@ -132,6 +137,7 @@ def tables(layout: TubeLayout) -> Tables:
         np.asarray(fs, dtype=np.int32),
         np.asarray(fe, dtype=np.int32),
         np.asarray(fc, dtype=np.int32),
+        np.asarray(flip, dtype=bool),
         np.asarray(cp, dtype=np.int32),
         np.asarray(cc, dtype=np.int32),
         layout.shapes[-1].top.segments,
@@ -215,6 +221,8 @@ def kinematics(layout: TubeLayout, geom: GeometryParams, q: Array) -> Kinematics
         z_lo = jnp.where(t.pt_lo_rigid, t.pt_lo_height * geom.pitch, z_lo_line)
         delta = gam + z_lo[t.seam_pt] - z_up[t.seam_pt]
         w_pt = z_up + delta[t.pt_conn] - z_lo
+        if t.pt_flip.any():  # TpcSign.AS_PRINTED
+            w_pt = jnp.where(t.pt_flip, 2.0 * gam[t.pt_conn] - w_pt, w_pt)
         f_start, f_end = w_pt[t.field_start], w_pt[t.field_end]
         f_len = s_val[t.field_end] - s_val[t.field_start]
     else:
