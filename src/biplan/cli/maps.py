@@ -1,8 +1,11 @@
-"""``biplan map {design,stability,plot}``: the paper's design and stability maps at scale.
+"""``biplan map {design,instability,stability,plot}``: the paper's maps at scale.
 
 * ``biplan map design CONFIG --b START:STOP:N --C START:STOP:N --out DIR`` — the
   force-controlled design map (terminal u_z/l₀, u_r/l₀ and loss of stability under the ramp
   F = Ḟ t) over (b, C);
+* ``biplan map instability CONFIG --b START:STOP:N --C START:STOP:N --out DIR`` — the end
+  force F* and displacement U* of the first loss of stability under force control (up to
+  ``--up-to`` N) over (b, C);
 * ``biplan map stability CONFIG --displacement START:STOP:N --C START:STOP:N --out DIR`` — the
   number of stable equilibria over (C, U/l₀) at fixed ``--b`` (default 0.58);
 * ``biplan map plot DIR`` — the figures of a finished map (``DIR/*.png``).
@@ -316,6 +319,41 @@ def design(
             scheduler=scheduler, threads=threads, quiet=quiet)  # fmt: skip
 
 
+@app.command("instability")
+def instability(
+    ctx: typer.Context,
+    config: _Config,
+    b: Annotated[str, typer.Option("--b", help="b values: START:STOP:N or a,b,c.")],
+    c: Annotated[str, typer.Option("--C", help="C values: START:STOP:N or a,b,c.")],
+    out: _Out = Path("instability_map"),
+    up_to: Annotated[float, typer.Option(help=r"Highest end force of the search \[N].")] = 3.0,
+    chunk_size: _Chunk = 16,
+    workers: _Workers = 1,
+    scheduler: _Scheduler = None,
+    threads: _Threads = 0,
+    resume: _Resume = False,
+    max_points: _MaxPoints = MAX_POINTS,
+    quiet: _Quiet = False,
+) -> None:
+    """First-instability map over (b, C): the end force F* [N] and displacement U* [mm] at
+    which a force-controlled test first loses stability (NaN where it does not below
+    --up-to)."""
+    import biplan
+    from biplan.analysis.instability_map import InstabilityEvaluator
+    from biplan.analysis.sweeps import Grid, check_grid, parse_axis
+
+    _check_runner(ctx, out, chunk_size, workers, scheduler, threads)
+    with options_named({**_GRID_OPTIONS, "up_to": "--up-to"}):
+        grid = Grid((parse_axis("b", b), parse_axis("C", c)))
+        ev = InstabilityEvaluator(up_to=up_to)
+    tube = biplan.load_config(config)
+    with options_named(_GRID_OPTIONS):
+        check_grid(tube, grid, ev)
+    check_size(grid, tube, ev, max_points, _cores(workers, scheduler, threads), ("--b", "--C"))
+    run_map(tube, grid, ev, out, chunk_size=chunk_size, resume=resume, workers=workers,
+            scheduler=scheduler, threads=threads, quiet=quiet)  # fmt: skip
+
+
 @app.command("stability")
 def stability(
     ctx: typer.Context,
@@ -382,7 +420,8 @@ def stability(
 def plot(
     directory: Annotated[Path, typer.Argument(help="Map directory (holding map.nc).")],
 ) -> None:
-    """Figures of a finished map: u_z.png and u_r.png (design) or stability.png."""
+    """Figures of a finished map: u_z.png and u_r.png (design), force.png (instability) or
+    stability.png."""
     import matplotlib
 
     matplotlib.use("Agg")
@@ -395,11 +434,18 @@ def plot(
     with options_named({"map": "DIRECTORY"}):
         ds = load_map(directory)
     folder = directory if directory.is_dir() else directory.parent
-    names = ("stability.png",) if "regime" in ds else ("u_z.png", "u_r.png")
+    if "regime" in ds:
+        names: tuple[str, ...] = ("stability.png",)
+    elif "found" in ds:
+        names = ("force.png",)
+    else:
+        names = ("u_z.png", "u_r.png")
     output_directory(folder, "DIRECTORY", files=names)
     jobs: list[tuple[str, Any]] = []
     if "regime" in ds:
         jobs.append(("stability", lambda ax: stability_map(ds, ax=ax)))
+    elif "found" in ds:
+        jobs.append(("force", lambda ax: design_map(ds, "force", ax=ax)))
     else:
         for var in ("u_z", "u_r"):
             jobs.append((var, lambda ax, v=var: design_map(ds, v, ax=ax)))

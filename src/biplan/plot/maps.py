@@ -33,7 +33,7 @@ VALIDATED_DESIGN = (0.573, 1.444)
 REGIME_COLORS = ("#56B4E9", "#E69F00", "#CC79A7")
 #: Colour of points where no stable equilibrium was found (regime 0).
 NONE_COLOR = "#BBBBBB"
-_LABELS = {"u_z": r"$u_z/l_0$", "u_r": r"$u_r/l_0$"}
+_LABELS = {"u_z": r"$u_z/l_0$", "u_r": r"$u_r/l_0$", "force": r"first instability $F^*$ [N]"}
 
 
 def grid_edges(x: np.ndarray) -> np.ndarray:
@@ -62,14 +62,16 @@ def design_map(
     levels: int = 12,
     cmap: str = "viridis",
 ) -> Axes:
-    """Contours of ``variable`` (``u_z`` or ``u_r``, normalised by l₀) over (b, C).
+    """Contours of ``variable`` over (b, C): ``u_z`` or ``u_r`` (normalised by l₀) of a design
+    map, ``force`` of a first-instability map. C is drawn on a log axis when the map spans
+    more than a decade of it.
 
     Parameters
     ----------
     ds : xarray.Dataset
-        A force-ramp design map with dims (b, C) (``sweep`` / ``biplan map design``).
+        A map with dims (b, C) (``sweep``, ``biplan map design`` or ``biplan map instability``).
     variable : str
-        ``"u_z"`` or ``"u_r"``.
+        ``"u_z"``, ``"u_r"`` or (first-instability map) ``"force"``.
     ax : Axes, optional
     star : (float, float) or "base" or None
         (b, C) to mark with a star. ``"base"`` (default): the design the map was swept from
@@ -113,6 +115,8 @@ def design_map(
     ax.set_xlabel(r"geometric ratio $b$")
     ax.set_ylabel(r"stiffness ratio $C$")
     _style(ax)
+    if c.size > 1 and c.min() > 0 and c.max() > 10 * c.min():
+        ax.set_yscale("log")
     return ax
 
 
