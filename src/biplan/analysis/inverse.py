@@ -98,7 +98,7 @@ class Target:
 
     @classmethod
     def parse(cls, text: str) -> Target:
-        """A target from ``OBSERVABLE[/l0]=VALUE[@F=FORCE | @U=DISPLACEMENT]``."""
+        """A target from ``OBSERVABLE[/l0]=VALUE[@F=FORCE | @U=DISPLACEMENT | @state=LABEL]``."""
         match = _SYNTAX.match(text)
         if match is None:
             raise ConfigError("target", text, _VALID)
@@ -108,16 +108,12 @@ class Target:
         except ValueError:
             names = ", ".join(o.value for o in Observable)
             raise ConfigError("target", text, f"an observable among {names}") from None
-        if kind == "state":
-            if not re.fullmatch(r"[0-9A-Fa-f]+", at):
-                raise ConfigError("target", text, "a hexadecimal state label after @state=")
-            try:
-                number = check_finite("target", float(value))
-            except ValueError:
-                raise ConfigError("target", text, _VALID) from None
-            return cls(obs, number, Load.of_force(0.0), per is not None, at.upper())
+        if kind == "state" and not re.fullmatch(r"[0-9A-Fa-f]+", at):
+            raise ConfigError("target", text, "a hexadecimal state label after @state=")
         try:
             number = check_finite("target", float(value))
+            if kind == "state":
+                return cls(obs, number, Load.of_force(0.0), per is not None, at.upper())
             load = None
             if kind is not None:
                 x = check_finite("target", float(at))
