@@ -48,7 +48,7 @@ def test_cli_writes_the_map_and_its_figure(tmp_path):
     config = tmp_path / "one.toml"
     config.write_text(dump_config(make_tube(1)))
     out = tmp_path / "map"
-    args = ["map", "instability", str(config), "--b", "0.5,0.6", "--C", "0.05,1.5"]
+    args = ["map", "instability", str(config), "--b", "0.45,0.55", "--C", "0.05,1.5"]
     with pytest.raises(SystemExit) as info:
         main([*args, "--out", str(out), "--quiet", "--chunk-size", "4"])
     assert info.value.code in (0, None)

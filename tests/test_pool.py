@@ -3,11 +3,13 @@ stability test (the pieces behind the fast map kernels)."""
 
 from __future__ import annotations
 
+import functools
+
 import numpy as np
 import pytest
 
 from biplan import _linalg as linalg
-from biplan._jax import jax, jnp
+from biplan._jax import jax, jnp, kernel_options
 from biplan.assembly import Load, contact_gaps, kkt_jacobian
 from biplan.solvers.newton import Newton, Status, compiled_loop, newton_loop
 from biplan.solvers.observe import kkt_min_eigenvalue, observe
@@ -57,14 +59,15 @@ def test_pool_equals_one_newton_loop_per_task(tasks) -> None:
     pad = 5  # padding tasks are never solved
     zz = np.concatenate([z0, np.zeros((pad, z0.shape[1]))])
     loads = Load(jnp.zeros(n + pad), jnp.asarray(np.r_[uu, np.zeros(pad)]), jnp.ones(n + pad))
-    out = jax.jit(newton_pool, static_argnums=(0, 7))(
+    cheap = kernel_options()  # the suite's pipeline (BIPLAN_FAST_COMPILE): same arithmetic
+    out = jax.jit(newton_pool, static_argnums=(0, 7), compiler_options=cheap)(
         m.layout, params, jnp.zeros(n + pad, dtype=jnp.int32), jnp.asarray(zz), loads,
         jnp.asarray(n), settings, 4,
     )  # fmt: skip
     assert (np.asarray(out.status)[n:] == -1).all()
     one = jax.jit(jax.vmap(lambda z, u: newton_loop(
         m.layout, m.params, z, Load(jnp.asarray(0.0), u, jnp.asarray(1.0)), settings,
-        line_search_loop=True)))  # fmt: skip
+        line_search_loop=True)), compiler_options=cheap)  # fmt: skip
     ref = one(jnp.asarray(z0), jnp.asarray(uu))
     assert np.array_equal(np.asarray(out.status)[:n], np.asarray(ref.status))
     assert np.array_equal(np.asarray(out.evals)[:n], np.asarray(ref.evals))
@@ -87,7 +90,7 @@ def test_stability_from_the_kkt_jacobian_equals_the_fresh_hessian(tasks) -> None
     settings = Newton().settings()
     loop = compiled_loop(m.layout)
 
-    @jax.jit
+    @functools.partial(jax.jit, compiler_options=kernel_options())
     def both(params, z, load):  # the two λ_min of one converged state, compiled once
         q = z[: m.n_coordinates]
         jac = kkt_jacobian(m.layout, params, z, load)

@@ -43,6 +43,7 @@ __all__ = [
     "ModelParams",
     "StateData",
     "TubeLayout",
+    "curvature",
     "fold_openings",
     "guide_values",
     "kernels",
@@ -354,6 +355,29 @@ def state_data(layout: TubeLayout, p: ModelParams, z: Array, load: Load) -> Stat
         ),
         gaps=local.gaps,
     )
+
+
+def curvature(
+    layout: TubeLayout, p: ModelParams, z: Array, load: Load, x: Array, eta: Array
+) -> Array:
+    """xᵀ K x − 2 ηᵀ A x at z, K = ∇²_q L and A = ∂[g; w_∂; z_p]/∂q (the rows of
+    :attr:`StateData.constraint_jacobian`), for x (n_q,) and η (n_g + n_c + 1,).
+
+    Computed as one directional derivative of the first-order terms along x (K x and A x by
+    ``jax.jvp`` of ∇_q L and of the rows), so no matrix is formed: its derivatives with respect
+    to z and the design (the sensitivity of λ_min) stay the size of a gradient.
+    """
+    nq = layout.n_coordinates
+
+    def first(q: Array) -> tuple[Array, Array]:
+        local, chain_part, coef, _ = _terms(
+            layout, p, jnp.concatenate([q, z[nq:]]), load, second_order=False
+        )
+        gradient = _lagrangian_gradient(p, local, chain_part, coef, q)
+        return gradient, jnp.concatenate([local.guides, local.gaps, chain_part.value[None]])
+
+    _, (kx, ax) = jax.jvp(first, (z[:nq],), (x,))
+    return x @ kx - 2.0 * eta @ ax
 
 
 def sizes(layout: TubeLayout) -> tuple[int, int, int]:

@@ -52,7 +52,16 @@ from biplan.analysis._parameters import (
     design_parameters,
 )
 from biplan.analysis.stability import active_contacts, null_space
-from biplan.assembly import Model, TubeLayout, kkt_jacobian, residual, state_data
+from biplan.assembly import (
+    Model,
+    TubeLayout,
+    curvature,
+    energy,
+    kkt_jacobian,
+    load_height,
+    residual,
+)
+from biplan.geometry.chain import endpoint
 from biplan.solvers.newton import Solution
 
 __all__ = [
@@ -196,36 +205,60 @@ def derivative_unit(numerator: str, denominator: str) -> str:
     return f"{numerator}/{denominator}"
 
 
-# --- the kernel --------------------------------------------------------------------------------
+# --- the kernels -------------------------------------------------------------------------------
+#: Rows of the first-order kernel (every row of :data:`_ROWS` but λ_min).
+_FIRST_ORDER = _ROWS[:-1]
+
+
+def _observables(layout: TubeLayout, p: Any, z: Array, load: Any) -> Array:
+    """The first-order observables (the rows of :data:`_FIRST_ORDER`) at z."""
+    q = z[: layout.n_coordinates]
+    e = endpoint(layout, p.geometry, q)
+    d = load.displacement_control
+    force = (1.0 - d) * load.force - d * z[-1]
+    return jnp.stack(
+        [e.u_z, e.u_r, e.theta, force, energy(layout, p, q), load_height(layout, p, q)]
+    )
+
+
 @functools.lru_cache(maxsize=32)
 def _kernel(layout: TubeLayout, angle: AngleParameter, displacement_control: bool) -> Any:
-    """(y, ∂y/∂z, ∂y/∂v, J, ∂r/∂v) at (v, z), compiled once per layout and parameter map."""
+    """(y, ∂y/∂z, ∂y/∂v, J, ∂r/∂v) at (v, z) of the first-order observables, compiled once per
+    layout and parameter map (forward mode: cheaper to compile than reverse here)."""
 
-    def load_params(maps: Maps, v: Array) -> Any:
-        return apply(maps, angle, displacement_control, v)
-
-    def observe(v: Array, z: Array, maps: Maps, x: Array, eta: Array) -> Array:
-        p, load = load_params(maps, v)
-        data = state_data(layout, p, z, load)
-        e = data.endpoint
-        d = load.displacement_control
-        force = (1.0 - d) * load.force - d * z[-1]
-        eig = x @ data.lagrangian_hessian @ x - 2.0 * eta @ (data.constraint_jacobian @ x)
-        return jnp.stack([e.u_z, e.u_r, e.theta, force, data.energy, data.load_displacement, eig])
+    def observe(v: Array, z: Array, maps: Maps) -> Array:
+        p, load = apply(maps, angle, displacement_control, v)
+        return _observables(layout, p, z, load)
 
     def res(v: Array, z: Array, maps: Maps) -> Array:
-        p, load = load_params(maps, v)
+        p, load = apply(maps, angle, displacement_control, v)
         return residual(layout, p, z, load)
 
-    def evaluate(maps: Maps, v: Array, z: Array, x: Array, eta: Array) -> tuple:
-        p, load = load_params(maps, v)
-        y = observe(v, z, maps, x, eta)
-        y_v, y_z = jax.jacrev(observe, argnums=(0, 1))(v, z, maps, x, eta)
+    def evaluate(maps: Maps, v: Array, z: Array) -> tuple:
+        p, load = apply(maps, angle, displacement_control, v)
+        y_v, y_z = jax.jacfwd(observe, argnums=(0, 1))(v, z, maps)
         r_v = jax.jacfwd(res)(v, z, maps)
-        return y, y_z, y_v, kkt_jacobian(layout, p, z, load), r_v
+        return observe(v, z, maps), y_z, y_v, kkt_jacobian(layout, p, z, load), r_v
 
     key = (layout, angle.value, displacement_control)
     return stored_jit(evaluate, "sensitivity", key, kernel_options())
+
+
+@functools.lru_cache(maxsize=32)
+def _eigen_kernel(layout: TubeLayout, angle: AngleParameter, displacement_control: bool) -> Any:
+    """(y, ∂y/∂z, ∂y/∂v) of y = xᵀ K x − 2 ηᵀ A x (the λ_min row; module docstring), compiled
+    only when λ_min is asked for (third derivatives of the energy: the costliest kernel)."""
+
+    def observe(v: Array, z: Array, maps: Maps, x: Array, eta: Array) -> Array:
+        p, load = apply(maps, angle, displacement_control, v)
+        return curvature(layout, p, z, load, x, eta)
+
+    def evaluate(maps: Maps, v: Array, z: Array, x: Array, eta: Array) -> tuple:
+        y_v, y_z = jax.jacfwd(observe, argnums=(0, 1))(v, z, maps, x, eta)
+        return observe(v, z, maps, x, eta), y_z, y_v
+
+    key = (layout, angle.value, displacement_control)
+    return stored_jit(evaluate, "min_eigenvalue_sensitivity", key, kernel_options())
 
 
 def eigen_weights(
@@ -282,10 +315,15 @@ def total_derivatives(
     x, eta = weights if weights is not None else (np.zeros(model.n_coordinates), None)
     if eta is None:
         eta = np.zeros(model.n_guides + model.n_contacts + 1)
-    kernel = _kernel(model.layout, parameters.angle, parameters.displacement_control)
+    key = (model.layout, parameters.angle, parameters.displacement_control)
     f64 = functools.partial(jnp.asarray, dtype=jnp.float64)
-    out = kernel(parameters.maps, f64(parameters.values), f64(state.z), f64(x), f64(eta))
+    v, z = f64(parameters.values), f64(state.z)
+    out = _kernel(*key)(parameters.maps, v, z)
     y, y_z, y_v, jac, r_v = (np.asarray(a) for a in out)
+    if Observable.MIN_EIGENVALUE in rows:
+        e, e_z, e_v = _eigen_kernel(*key)(parameters.maps, v, z, f64(x), f64(eta))
+        y = np.append(y, float(e))
+        y_z, y_v = np.vstack([y_z, np.asarray(e_z)]), np.vstack([y_v, np.asarray(e_v)])
     pick = [_ROWS.index(o) for o in rows]
     y, y_z, y_v = y[pick], y_z[pick], y_v[pick]
     adjoint = method is Method.ADJOINT or (method is Method.AUTO and len(pick) < r_v.shape[1])
