@@ -134,3 +134,25 @@ def test_printed_tpc_sign_mirrors_the_first_field_of_each_tpc():
     np.testing.assert_allclose(w_p[t.pt_flip], 2 * gamma[t.pt_flip] - w_g[t.pt_flip], atol=1e-13)
     np.testing.assert_array_equal(w_p[~t.pt_flip], w_g[~t.pt_flip])
     assert np.all(np.abs(w_g[t.pt_flip] - gamma[t.pt_flip]) > 1e-6)  # the sign matters here
+
+
+def test_curvature_is_the_quadratic_form_of_the_assembled_matrices(model2, rng):
+    """assembly.curvature (directional derivatives, no matrix) = xᵀ K x − 2 ηᵀ A x with K and
+    A of state_data, under force and displacement control."""
+    layout, p = model2.layout, model2.params
+    q = random_configuration(model2, rng)
+    n_rows = model2.n_guides + model2.n_contacts + 1
+
+    @functools.partial(jax.jit, compiler_options=kernel_options())
+    def both(z, load, x, eta):
+        data = asm.state_data(layout, p, z, load)
+        quad = x @ data.lagrangian_hessian @ x - 2.0 * eta @ (data.constraint_jacobian @ x)
+        return asm.curvature(layout, p, z, load, x, eta), quad
+
+    for load in LOADS.values():
+        z = model2.pack(
+            q, rng.normal(0.0, 1.0, model2.n_guides), rng.uniform(0.0, 1.0, model2.n_contacts), 0.3
+        )
+        x, eta = rng.normal(size=model2.n_coordinates), rng.normal(size=n_rows)
+        got, want = both(jnp.asarray(z), load.for_kernel(), jnp.asarray(x), jnp.asarray(eta))
+        assert abs(float(got) - float(want)) < TOL * max(1.0, abs(float(want)))
