@@ -17,7 +17,7 @@ import numpy as np
 import pytest
 
 import biplan
-from biplan._jax import jnp
+from biplan._jax import jax, jnp, kernel_options
 from biplan.analysis.modes import natural_modes, rayleigh_for_damping_ratio
 from biplan.analysis.ramp_dynamics import continue_ramp
 from biplan.assembly import Load
@@ -43,10 +43,9 @@ def test_mass_matrix_and_inertia_force(model6, loaded, rng):
     v = rng.normal(size=q.size)
     a = rng.normal(size=q.size)
     mu = model6.tube.surface_density
+    force = jax.jit(inertia_force, static_argnums=0, compiler_options=kernel_options())
     f = np.asarray(
-        inertia_force(
-            model6.layout, model6.params, jnp.asarray(q), jnp.asarray(v), jnp.asarray(a), mu
-        )
+        force(model6.layout, model6.params, jnp.asarray(q), jnp.asarray(v), jnp.asarray(a), mu)
     )
 
     # Lagrange: d/dt(M v) − ½ ∂(vᵀMv)/∂q with d/dt M = ∂M/∂q·v, by central differences
