@@ -227,3 +227,17 @@ def test_cli_refuses_bad_requests(tmp_path: Path, capsys, monkeypatch, args, nee
     assert "Traceback" not in captured.err
     lines = [line for line in captured.err.splitlines() if line.strip()]
     assert len(lines) == 1 and needle in lines[0], captured.err
+
+
+def test_limit_point_of_the_semi_bistable_design(model6):
+    """The paper's design snaps back: a full Newton step on U lands past the turn of the
+    displacement-controlled branch, where no equilibrium exists, and is halved. The search ends
+    at λ_min^F = 0, at least first_snap's force (its last stable state before the peak)."""
+    from biplan.analysis.loadcontrol import first_snap
+
+    limit = locate_limit_point(model6)
+    snap = first_snap(model6)
+    assert snap is not None
+    assert abs(limit.min_eigenvalue) < 1e-10
+    assert 0.0 <= limit.force - snap.force < 1e-3 * snap.force
+    assert limit.displacement > snap.displacement_before

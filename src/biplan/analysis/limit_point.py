@@ -43,6 +43,9 @@ __all__ = ["LimitPoint", "limit_point_sensitivity", "locate_limit_point"]
 
 #: Newton steps of :func:`locate_limit_point`.
 MAX_ITERATIONS = 40
+#: Halvings of a Newton step on U whose equilibrium solve fails (the step went past the
+#: displacement-controlled branch's own turn, where no equilibrium exists).
+MAX_HALVINGS = 12
 #: A Newton step on U below this (relative to max(|U|, 1 mm)) ends the search: U* is found
 #: to rounding.
 STEP_TOLERANCE = 1e-13
@@ -139,10 +142,21 @@ def locate_limit_point(
         raise ConfigError("start", "force control", "a displacement-controlled Solution")
     state = _start(model, up_to) if start is None else start
     z, u = state.z, float(state.load.displacement)
+    u_good, step, halvings = u, 0.0, 0
     for it in range(MAX_ITERATIONS + 1):
-        state = solve_equilibrium(model, solver, z, Load.of_displacement(u))
-        if not state.converged:
-            raise ConvergenceError(f"limit point: solve at U = {u:.10g} mm: {state.message}")
+        trial = solve_equilibrium(model, solver, z, Load.of_displacement(u))
+        if not trial.converged:
+            # past the branch's own turn in U (a snap-back): no equilibrium there; shorter
+            # steps from the last converged state (the limit point of F comes before it)
+            if it == 0 or halvings == MAX_HALVINGS:
+                raise ConvergenceError(
+                    f"limit point: solve at U = {u:.10g} mm ({halvings} step halvings from "
+                    f"U = {u_good:.10g} mm): {trial.message}"
+                )
+            step, halvings = 0.5 * step, halvings + 1
+            u = u_good + step
+            continue
+        state, u_good, halvings = trial, u, 0
         y, dy = _eigen_derivative(model, state)
         slope = dy[0, -1]
         step = -y[0] / slope if slope != 0 else np.inf
