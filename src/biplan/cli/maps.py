@@ -273,6 +273,22 @@ def _check_runner(
         refuse_unused(ctx, {"threads": "--threads"}, "with --workers > 1")
 
 
+def _run_b_c_map(config: Path, grid: Any, ev: Any, out: Path, *, chunk_size: int,
+                 resume: bool, workers: int, scheduler: str | None, threads: int,
+                 max_points: int, quiet: bool) -> None:  # fmt: skip
+    """Load the tube, check the (b, C) grid and its size, then run the map (design and
+    instability maps)."""
+    import biplan
+    from biplan.analysis.sweeps import check_grid
+
+    tube = biplan.load_config(config)
+    with options_named(_GRID_OPTIONS):
+        check_grid(tube, grid, ev)
+    check_size(grid, tube, ev, max_points, _cores(workers, scheduler, threads), ("--b", "--C"))
+    run_map(tube, grid, ev, out, chunk_size=chunk_size, resume=resume, workers=workers,
+            scheduler=scheduler, threads=threads, quiet=quiet)  # fmt: skip
+
+
 @app.command("design")
 def design(
     ctx: typer.Context,
@@ -300,9 +316,8 @@ def design(
     quiet: _Quiet = False,
 ) -> None:
     """Force-controlled design map over (b, C): terminal u_z/l0, u_r/l0, loss of stability."""
-    import biplan
     from biplan.analysis.design_map import ForceRamp, ResponseEvaluator
-    from biplan.analysis.sweeps import Grid, check_grid, parse_axis
+    from biplan.analysis.sweeps import Grid, parse_axis
 
     _check_runner(ctx, out, chunk_size, workers, scheduler, threads)
     names = {**_GRID_OPTIONS, "ramp.rate": "--rate", "ramp.duration": "--duration",
@@ -311,12 +326,10 @@ def design(
         grid = Grid((parse_axis("b", b), parse_axis("C", c)))
         ramp = ForceRamp(rate=rate, duration=duration, n_steps=steps, after_snap=after_snap)
     ev = ResponseEvaluator(ramp)
-    tube = biplan.load_config(config)
-    with options_named(_GRID_OPTIONS):
-        check_grid(tube, grid, ev)
-    check_size(grid, tube, ev, max_points, _cores(workers, scheduler, threads), ("--b", "--C"))
-    run_map(tube, grid, ev, out, chunk_size=chunk_size, resume=resume, workers=workers,
-            scheduler=scheduler, threads=threads, quiet=quiet)  # fmt: skip
+    _run_b_c_map(
+        config, grid, ev, out, chunk_size=chunk_size, resume=resume, workers=workers,
+        scheduler=scheduler, threads=threads, max_points=max_points, quiet=quiet,
+    )  # fmt: skip
 
 
 @app.command("instability")
@@ -338,20 +351,17 @@ def instability(
     """First-instability map over (b, C): the end force F* [N] and displacement U* [mm] at
     which a force-controlled test first loses stability (NaN where it does not below
     --up-to)."""
-    import biplan
     from biplan.analysis.instability_map import InstabilityEvaluator
-    from biplan.analysis.sweeps import Grid, check_grid, parse_axis
+    from biplan.analysis.sweeps import Grid, parse_axis
 
     _check_runner(ctx, out, chunk_size, workers, scheduler, threads)
     with options_named({**_GRID_OPTIONS, "up_to": "--up-to"}):
         grid = Grid((parse_axis("b", b), parse_axis("C", c)))
         ev = InstabilityEvaluator(up_to=up_to)
-    tube = biplan.load_config(config)
-    with options_named(_GRID_OPTIONS):
-        check_grid(tube, grid, ev)
-    check_size(grid, tube, ev, max_points, _cores(workers, scheduler, threads), ("--b", "--C"))
-    run_map(tube, grid, ev, out, chunk_size=chunk_size, resume=resume, workers=workers,
-            scheduler=scheduler, threads=threads, quiet=quiet)  # fmt: skip
+    _run_b_c_map(
+        config, grid, ev, out, chunk_size=chunk_size, resume=resume, workers=workers,
+        scheduler=scheduler, threads=threads, max_points=max_points, quiet=quiet,
+    )  # fmt: skip
 
 
 @app.command("stability")
