@@ -272,6 +272,24 @@ def test_stability_map_cells_and_band_outline() -> None:
     plt.close(ax.figure)
 
 
+def test_stability_map_over_decades_of_c_is_drawn_on_a_log_axis() -> None:
+    """C log-spaced over almost two decades (the reproduction's grid): cell edges at the
+    geometric means of neighbours, a log C axis that ends at the grid."""
+    from biplan.plot.maps import grid_edges, stability_map
+
+    regime = np.array([[3, 3, 3, 3, 3], [2, 2, 3, 3, 3], [1, 1, 2, 2, 2]], dtype=float)
+    ds = _stability_ds(regime, np.zeros_like(regime, dtype=bool))
+    c = np.geomspace(0.05, 3.0, 3)
+    ds = ds.assign_coords(C=c)
+    np.testing.assert_allclose(
+        grid_edges(c, log=True), [0.05, np.sqrt(c[0] * c[1]), np.sqrt(c[1] * c[2]), 3.0]
+    )
+    ax = stability_map(ds)
+    assert ax.get_yscale() == "log"
+    assert ax.get_ylim() == pytest.approx((0.05, 3.0))
+    plt.close(ax.figure)
+
+
 @pytest.mark.parametrize(
     ("regime", "labels"),
     [
@@ -317,3 +335,27 @@ def test_design_map_stars_the_swept_design() -> None:
     assert star_of(based, star=(0.7, 1.444)) is None  # off the map (b ≤ 0.6): not drawn
     with pytest.raises(biplan.ConfigError, match="star"):
         design_map(based, "u_z", star="validated")
+
+
+def test_design_map_highlights_one_level() -> None:
+    """``highlight`` draws the contour of one value (the 1.6 N ramp on a first-instability
+    map) over the filled levels, labelled; a value outside the map's range draws nothing."""
+    import xarray as xr
+    from matplotlib.contour import ContourSet
+
+    from biplan.plot.maps import design_map
+
+    b, c = np.linspace(0.3, 0.95, 4), np.geomspace(0.05, 3.0, 4)
+    force = 1.0 + np.log10(c)[None, :] * 0.5 + 0.5 * (1.0 - b[:, None]) + 0.8
+    ds = xr.Dataset({"force": (("b", "C"), force)}, coords={"b": b, "C": c})
+
+    def lines(**kw: object) -> list[ContourSet]:
+        ax = design_map(ds, "force", **kw)
+        found = [cs for cs in ax.findobj(ContourSet) if not cs.filled and list(cs.levels) == [1.6]]
+        assert ax.get_yscale() == "log"  # C spans almost two decades
+        plt.close(ax.figure)
+        return found
+
+    assert lines() == []
+    assert len(lines(highlight=1.6)) == 1
+    assert lines(highlight=1.6 + 10.0) == []

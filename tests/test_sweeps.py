@@ -64,6 +64,9 @@ def test_parse_axis_forms() -> None:
     assert parse_axis("b", "0.4:0.7:4").values == pytest.approx((0.4, 0.5, 0.6, 0.7))
     assert parse_axis("C", "1, 2.5,3").values == (1.0, 2.5, 3.0)
     assert parse_axis("C", np.array([1.0, 2.0])).values == (1.0, 2.0)
+    log = parse_axis("C", "0.05:3:5log").values  # log-spaced: constant ratio, ends kept
+    assert log[0] == pytest.approx(0.05) and log[-1] == pytest.approx(3.0)
+    np.testing.assert_allclose(np.diff(np.log(log)), np.log(60.0) / 4)
     g = Grid.of(b="0.4:0.6:3", C=[1.0, 2.0])
     assert g.shape == (3, 2) and g.size == 6
     assert g.point(5) == {"b": pytest.approx(0.6), "C": 2.0}
@@ -76,6 +79,8 @@ def test_parse_axis_forms() -> None:
         ("b", "0.4:0.7:0", "N ≥ 1"),
         ("C", "1:1:3", "START ≠ STOP"),
         ("C", "1,x", "comma-separated"),
+        ("C", "0:3:4log", "START > 0"),
+        ("C", "0.1:3:xlog", "START:STOP:Nlog with numbers"),
         ("C", [1.0, float("nan")], "finite"),
         ("C", [], "at least one value"),
     ],

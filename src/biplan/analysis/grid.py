@@ -1,9 +1,9 @@
 """Sweep grids: axes of design (and load) parameters and how a value is applied to a tube.
 
 :class:`Grid` is a tensor product of :class:`GridAxis` (row-major, the last axis fastest);
-:func:`parse_axis` reads ``"START:STOP:N"`` or lists; :func:`apply_values` derives the tube of
-a grid point from the base design (b through β at fixed R and l, C through k_helic with the
-circular law fixed, MODEL.md §3).
+:func:`parse_axis` reads ``"START:STOP:N"``, ``"START:STOP:Nlog"`` or lists;
+:func:`apply_values` derives the tube of a grid point from the base design (b through β at
+fixed R and l, C through k_helic with the circular law fixed, MODEL.md §3).
 """
 
 from __future__ import annotations
@@ -110,8 +110,9 @@ _SPEC = re.compile(r"^\s*([^:]+):([^:]+):([^:]+)\s*$")
 
 
 def parse_axis(name: str, spec: Sequence[float] | str | np.ndarray) -> GridAxis:
-    """A grid axis from ``"START:STOP:N"`` (N evenly spaced values, both ends included), a
-    comma-separated list ``"1.0,1.5,2"`` or a sequence of numbers.
+    """A grid axis from ``"START:STOP:N"`` (N evenly spaced values, both ends included),
+    ``"START:STOP:Nlog"`` (N log-spaced values, both ends > 0: for a ratio such as C that
+    spans decades), a comma-separated list ``"1.0,1.5,2"`` or a sequence of numbers.
 
     Raises
     ------
@@ -121,22 +122,28 @@ def parse_axis(name: str, spec: Sequence[float] | str | np.ndarray) -> GridAxis:
     if isinstance(spec, str):
         m = _SPEC.match(spec)
         if m:
+            count = m.group(3).strip()
+            log = count.lower().endswith("log")
+            form = "START:STOP:Nlog" if log else "START:STOP:N"
             try:
                 start, stop = float(m.group(1)), float(m.group(2))
-                n = int(m.group(3))
+                n = int(count[:-3] if log else count)
             except ValueError:
-                raise ConfigError(
-                    name, spec, "START:STOP:N with numbers and an integer N"
-                ) from None
+                raise ConfigError(name, spec, f"{form} with numbers and an integer N") from None
             if n < 1 or not (math.isfinite(start) and math.isfinite(stop)):
-                raise ConfigError(name, spec, "START:STOP:N with finite ends and N ≥ 1")
+                raise ConfigError(name, spec, f"{form} with finite ends and N ≥ 1")
             if n > 1 and start == stop:
                 raise ConfigError(name, spec, "START ≠ STOP when N > 1")
-            return GridAxis(name, tuple(np.linspace(start, stop, n).tolist()))
+            if log and min(start, stop) <= 0:
+                raise ConfigError(name, spec, "START:STOP:Nlog with START > 0 and STOP > 0")
+            values = np.geomspace(start, stop, n) if log else np.linspace(start, stop, n)
+            return GridAxis(name, tuple(values.tolist()))
         try:
             values = [float(v) for v in spec.split(",") if v.strip()]
         except ValueError:
-            raise ConfigError(name, spec, "START:STOP:N or a comma-separated list") from None
+            raise ConfigError(
+                name, spec, "START:STOP:N, START:STOP:Nlog or a comma-separated list"
+            ) from None
         return GridAxis(name, tuple(values))
     arr = np.asarray(spec, dtype=float).ravel()
     return GridAxis(name, tuple(arr.tolist()))

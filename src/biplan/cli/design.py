@@ -91,13 +91,13 @@ def design(
     (out / "design.toml").write_text(dump_config(result.tube), encoding="utf-8")
     lines = ["target,wanted,achieved,met"]
     lines += [
-        f'"{t.label}",{t.value!r},{y!r},{bool(ok)}'
+        f'"{t.label}",{float(t.value)!r},{float(y)!r},{bool(ok)}'
         for t, y, ok in zip(result.targets, result.achieved, result.met, strict=True)
     ]
     (out / "design.csv").write_text("\n".join(lines) + "\n", encoding="utf-8")
     rows = ["target,parameter,value"]
     rows += [
-        f'"{t.label}",{name},{result.jacobian[i, j]!r}'
+        f'"{t.label}",{name},{float(result.jacobian[i, j])!r}'
         for i, t in enumerate(result.targets)
         for j, name in enumerate(result.names)
     ]

@@ -53,6 +53,7 @@ __all__ = ["MAX_POINTS", "WARN_SECONDS", "app", "check_size", "design", "plot", 
 app = typer.Typer(help="Design and stability maps over grids of design parameters.",
                   no_args_is_help=True)  # fmt: skip
 
+_C_HELP = "C values: START:STOP:N, START:STOP:Nlog (log-spaced) or a,b,c."
 _Config = Annotated[Path, typer.Argument(help="Tube configuration (TOML).", exists=True)]
 _Out = Annotated[Path, typer.Option("--out", help="Output directory.")]
 _Workers = Annotated[int, typer.Option(help="Worker processes (1: in this process).")]
@@ -294,7 +295,7 @@ def design(
     ctx: typer.Context,
     config: _Config,
     b: Annotated[str, typer.Option("--b", help="b values: START:STOP:N or a,b,c.")],
-    c: Annotated[str, typer.Option("--C", help="C values: START:STOP:N or a,b,c.")],
+    c: Annotated[str, typer.Option("--C", help=_C_HELP)],
     out: _Out = Path("design_map"),
     rate: Annotated[float, typer.Option(help="Force rate Ḟ [N/s].")] = 0.8,
     duration: Annotated[float, typer.Option(help=r"Ramp duration \[s].")] = 2.0,
@@ -337,7 +338,7 @@ def instability(
     ctx: typer.Context,
     config: _Config,
     b: Annotated[str, typer.Option("--b", help="b values: START:STOP:N or a,b,c.")],
-    c: Annotated[str, typer.Option("--C", help="C values: START:STOP:N or a,b,c.")],
+    c: Annotated[str, typer.Option("--C", help=_C_HELP)],
     out: _Out = Path("instability_map"),
     up_to: Annotated[float, typer.Option(help=r"Highest end force of the search \[N].")] = 3.0,
     chunk_size: _Chunk = 16,
@@ -371,7 +372,7 @@ def stability(
     displacement: Annotated[
         str, typer.Option(help="U/l0 values (normalised end displacement): START:STOP:N.")
     ],
-    c: Annotated[str, typer.Option("--C", help="C values: START:STOP:N or a,b,c.")],
+    c: Annotated[str, typer.Option("--C", help=_C_HELP)],
     out: _Out = Path("stability_map"),
     b: Annotated[float, typer.Option("--b", help="Geometric ratio b (set through β).")] = 0.58,
     max_equilibria: Annotated[int, typer.Option(help="Equilibria kept per point.")] = 8,

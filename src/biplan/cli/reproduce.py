@@ -10,9 +10,15 @@ and the command goes on):
   CSVs, default a synthetic band made from the sweep with specimen scatter):
   ``fig3_A2_force_displacement.png``, ``validation.csv``;
 * ``design_map`` — Fig. 3 A.1, the force-ramp design map over (b, C): ``design_map/map.nc``,
-  ``fig3_A1_design_maps.png``;
-* ``stability_map`` — Fig. 3 A.3 at b = 0.58: ``stability_map/map.nc``,
-  ``fig3_A3_stability_map.png``;
+  ``fig3_A1_design_maps.png``; b spans its admissible range (0.30–0.95 at the Table's R and
+  l) and C is log-spaced from 0.05 to 3, so that the map shows where the transformation
+  completes within the ramp (low C);
+* ``instability_map`` — the first-instability force F* over the same (b, C) grid (force
+  control, the first located loss of stability up to 3 N; not a panel of the paper, the
+  evidence of its claim A.2 "within the ramp"): ``instability_map/map.nc``,
+  ``fig3_A1_first_instability.png``;
+* ``stability_map`` — Fig. 3 A.3 at b = 0.58 (C log-spaced from 0.05 to 3):
+  ``stability_map/map.nc``, ``fig3_A3_stability_map.png``;
 * ``states`` — Fig. 4, the fully bistable four-module tube, by ``biplan states`` in a child
   process with a time limit (a hung enumeration cannot stop the run): ``states/``
   (states.csv, seeds.csv, states.nc, hierarchy.nc, transitions.graphml),
@@ -54,6 +60,7 @@ from rich.markup import escape
 from biplan._errors import ConfigError
 from biplan.cli._checks import output_directory
 from biplan.io.reproduction import (
+    RAMP_FORCE,
     CalibrationFacts,
     MovieFacts,
     Results,
@@ -73,11 +80,15 @@ SWEEP_END = 11.0
 #: Values of ``--tpc-sign`` (those of :class:`biplan.options.TpcSign`; the options module is
 #: not imported here, it imports JAX).
 TPC_SIGNS = ("geometric", "as_printed")
+#: Highest end force [N] of the first-instability map's search (above the Table design's
+#: F* = 2.13 N, so the map shows how far each design is from the paper's 1.6 N ramp).
+INSTABILITY_UP_TO = 3.0
 
 #: The figure files written, by figure key of :data:`biplan.io.reproduction.FIGURES`.
 FIGURE_FILES = {
     "fig3": (
         "fig3_A1_design_maps.png",
+        "fig3_A1_first_instability.png",
         "fig3_A2_force_displacement.png",
         "fig3_A3_stability_map.png",
         "fig3_B_snapshots.png",
@@ -89,7 +100,11 @@ FIGURE_FILES = {
 
 @dataclass(frozen=True)
 class Settings:
-    """Resolution of a run (``--quick`` or the paper's)."""
+    """Resolution of a run (``--quick`` or the paper's).
+
+    Grids are (start, stop, points): b and the displacement evenly spaced, C log-spaced
+    (``design_c``, ``stability_c``: it spans almost two decades).
+    """
 
     sweep_steps: int
     design_b: tuple[float, float, int]
@@ -107,10 +122,10 @@ class Settings:
     def quick(cls) -> Settings:
         return cls(
             sweep_steps=44,
-            design_b=(0.45, 0.7, 3),
-            design_c=(0.5, 3.0, 3),
+            design_b=(0.30, 0.95, 3),
+            design_c=(0.05, 3.0, 3),
             ramp_steps=16,
-            stability_c=(0.5, 3.0, 3),
+            stability_c=(0.05, 3.0, 3),
             stability_u=(0.01, 0.1, 3),
             bootstrap=20,
             movie_frames=12,
@@ -122,10 +137,10 @@ class Settings:
     def full(cls) -> Settings:
         return cls(
             sweep_steps=150,
-            design_b=(0.4, 0.75, 25),
-            design_c=(0.5, 3.0, 25),
+            design_b=(0.30, 0.95, 27),
+            design_c=(0.05, 3.0, 25),
             ramp_steps=32,
-            stability_c=(0.5, 3.0, 20),
+            stability_c=(0.05, 3.0, 20),
             stability_u=(0.005, 0.2, 20),
             bootstrap=200,
             movie_frames=100,
@@ -164,6 +179,11 @@ def _semi(ctx: _Context) -> Any:
 
 def _linspace(spec: tuple[float, float, int]) -> list[float]:
     return [float(x) for x in np.linspace(*spec)]
+
+
+def _logspace(spec: tuple[float, float, int]) -> list[float]:
+    start, stop, n = spec
+    return [round(float(x), 6) for x in np.geomspace(start, stop, n)]
 
 
 # --- stages ----------------------------------------------------------------------------------
@@ -316,7 +336,7 @@ def _stage_design_map(ctx: _Context) -> None:
     from biplan.plot.maps import design_map
 
     s = ctx.settings
-    grid = Grid.of(b=_linspace(s.design_b), C=_linspace(s.design_c))
+    grid = Grid.of(b=_linspace(s.design_b), C=_logspace(s.design_c))
     ev = ResponseEvaluator(ForceRamp(n_steps=s.ramp_steps))
     ds = run_map_python(_semi(ctx), grid, ev, ctx.out / "design_map", 4)
     fig, axes = plt.subplots(1, 2, figsize=(7.0, 2.8), layout="constrained")
@@ -324,6 +344,27 @@ def _stage_design_map(ctx: _Context) -> None:
     design_map(ds, "u_r", ax=axes[1])
     _save(fig, ctx.out / "fig3_A1_design_maps.png")
     ctx.results.design_map = ds
+
+
+def _stage_instability_map(ctx: _Context) -> None:
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    from biplan.analysis.instability_map import InstabilityEvaluator
+    from biplan.analysis.sweeps import Grid
+    from biplan.plot.maps import design_map
+    from biplan.plot.response import COLUMN_FIGSIZE
+
+    s = ctx.settings
+    grid = Grid.of(b=_linspace(s.design_b), C=_logspace(s.design_c))
+    ev = InstabilityEvaluator(up_to=INSTABILITY_UP_TO)
+    ds = run_map_python(_semi(ctx), grid, ev, ctx.out / "instability_map", 4)
+    fig, ax = plt.subplots(figsize=COLUMN_FIGSIZE, layout="constrained")
+    design_map(ds, "force", ax=ax, highlight=RAMP_FORCE)
+    _save(fig, ctx.out / "fig3_A1_first_instability.png")
+    ctx.results.instability_map = ds
 
 
 def _stage_stability_map(ctx: _Context) -> None:
@@ -340,7 +381,7 @@ def _stage_stability_map(ctx: _Context) -> None:
 
     s = ctx.settings
     tube = apply_values(_semi(ctx), {"b": PAPER_B})
-    grid = Grid.of(C=_linspace(s.stability_c), displacement=_linspace(s.stability_u))
+    grid = Grid.of(C=_logspace(s.stability_c), displacement=_linspace(s.stability_u))
     ds = run_map_python(tube, grid, StabilityEvaluator(), ctx.out / "stability_map", grid.shape[1])
     fig, ax = plt.subplots(figsize=COLUMN_FIGSIZE, layout="constrained")
     stability_map(ds, ax=ax)
@@ -541,6 +582,7 @@ STAGES: dict[str, tuple[str, Callable[[_Context], None]]] = {
     "semi": ("semi-bistable sweep and snapshots (Fig. 3 B)", _stage_semi),
     "validation": ("force–displacement vs band (Fig. 3 A.2)", _stage_validation),
     "design_map": ("design map over (b, C) (Fig. 3 A.1)", _stage_design_map),
+    "instability_map": ("first-instability force over (b, C)", _stage_instability_map),
     "stability_map": ("stability map at b = 0.58 (Fig. 3 A.3)", _stage_stability_map),
     "states": ("fully bistable states and transitions (Fig. 4)", _stage_states),
     "calibration": ("CFT calibration (SI)", _stage_calibration),

@@ -264,6 +264,7 @@ class Results:
 
     semi: SemiBistableFacts | None = None
     design_map: Any = None
+    instability_map: Any = None
     stability_map: Any = None
     validation: ValidationFacts | None = None
     states: StateFacts | None = None
@@ -320,8 +321,28 @@ def _within_ramp(r: Results) -> Finding:
         f"first loss of stability at F = {_fmt(peak, 4)} N",
         grade_distance(max(excess, 0.0) if np.isfinite(excess) else excess, 0.0, 0.2),
         f"the transition starts {'within' if excess <= 0 else 'above'} the paper's 1.6 N ramp"
-        + ("" if excess <= 0 else f" (by {excess:.2f} N; docs/fidelity.md)"),
+        + ("" if excess <= 0 else f" (by {excess:.2f} N; docs/fidelity.md)")
+        + _instability_region(r.instability_map),
     )
+
+
+def _instability_region(ds: Any) -> str:
+    """Where on the first-instability map (b, C) the transition starts within the ramp
+    (empty when the map was not run)."""
+    if ds is None:
+        return ""
+    b, c, f = _axis(ds, "force")
+    inside = np.isfinite(f) & (f <= RAMP_FORCE)
+    if not np.any(np.isfinite(f)):
+        return "; the first-instability map found no loss of stability"
+    i, j = _corner(np.where(np.isfinite(f), f, np.inf), np.argmin)
+    text = (
+        f"; on the (b, C) map F* ≤ {RAMP_FORCE:g} N at {int(inside.sum())} of {f.size} designs, "
+        f"lowest F* = {_fmt(float(f[i, j]), 3)} N at b = {b[i]:.3g}, C = {c[j]:.3g}"
+    )
+    if inside.any():
+        text += f" (C ≤ {c[np.flatnonzero(inside.any(axis=0)).max()]:.3g})"
+    return text
 
 
 def _distributed(r: Results) -> Finding:

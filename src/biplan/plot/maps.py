@@ -36,15 +36,23 @@ NONE_COLOR = "#BBBBBB"
 _LABELS = {"u_z": r"$u_z/l_0$", "u_r": r"$u_r/l_0$", "force": r"first instability $F^*$ [N]"}
 
 
-def grid_edges(x: np.ndarray) -> np.ndarray:
+def grid_edges(x: np.ndarray, log: bool = False) -> np.ndarray:
     """Cell edges of grid values ``x`` that end at the grid: the midpoints between
-    neighbours, and ``x[0]``, ``x[-1]`` outside them (so a map drawn on them spans exactly
-    the grid). A single value gets a cell 1 wide around it (never below zero for a value
-    ≥ 0): a grid of one value has no extent to end at."""
+    neighbours (geometric means with ``log``, for an axis drawn on a log scale), and ``x[0]``,
+    ``x[-1]`` outside them (so a map drawn on them spans exactly the grid). A single value
+    gets a cell 1 wide around it (never below zero for a value ≥ 0): a grid of one value has
+    no extent to end at."""
     x = np.asarray(x, dtype=float)
     if x.size == 1:
         return cell_edges(x, clip_at_zero=True)
-    return np.r_[x[0], 0.5 * (x[1:] + x[:-1]), x[-1]]
+    mid = np.sqrt(x[1:] * x[:-1]) if log else 0.5 * (x[1:] + x[:-1])
+    return np.r_[x[0], mid, x[-1]]
+
+
+def _spans_decades(x: np.ndarray) -> bool:
+    """Whether values ``x`` are positive and span more than a decade (drawn on a log axis)."""
+    x = np.asarray(x, dtype=float)
+    return bool(x.size > 1 and x.min() > 0 and x.max() > 10 * x.min())
 
 
 def _require(ds: Any, names: tuple[str, ...], what: str) -> None:
@@ -61,6 +69,7 @@ def design_map(
     star: tuple[float, float] | str | None = "base",
     levels: int = 12,
     cmap: str = "viridis",
+    highlight: float | None = None,
 ) -> Axes:
     """Contours of ``variable`` over (b, C): ``u_z`` or ``u_r`` (normalised by l₀) of a design
     map, ``force`` of a first-instability map. C is drawn on a log axis when the map spans
@@ -82,6 +91,9 @@ def design_map(
         Number of contour levels.
     cmap : str
         Matplotlib colour map.
+    highlight : float, optional
+        A value of ``variable`` whose contour is drawn bold and labelled (e.g. the paper's
+        1.6 N ramp on a first-instability map: designs below it transform within the ramp).
     """
     _require(ds, (variable, "b", "C"), "a design map with dims (b, C)")
     da = ds[variable].transpose("C", "b")
@@ -91,6 +103,9 @@ def design_map(
     if b.size > 1 and c.size > 1:
         cs = ax.contourf(b, c, z, levels=levels, cmap=cmap)
         ax.contour(b, c, z, levels=cs.levels, colors="k", linewidths=0.3, alpha=0.5)
+        if highlight is not None and z.min() < highlight < z.max():
+            line = ax.contour(b, c, z, levels=[highlight], colors="w", linewidths=1.5)
+            ax.clabel(line, fmt=lambda v: f"{v:g}", fontsize=FONT_SIZE - 1)
     else:
         cs = ax.pcolormesh(b, c, z, cmap=cmap, shading="nearest")
     cbar = ax.figure.colorbar(cs, ax=ax)
@@ -115,13 +130,14 @@ def design_map(
     ax.set_xlabel(r"geometric ratio $b$")
     ax.set_ylabel(r"stiffness ratio $C$")
     _style(ax)
-    if c.size > 1 and c.min() > 0 and c.max() > 10 * c.min():
+    if _spans_decades(c):
         ax.set_yscale("log")
     return ax
 
 
 def stability_map(ds: Any, *, ax: Axes | None = None, legend: bool = True) -> Axes:
-    """Mono/bi/multistable regions over (U/l₀, C) with the transition band hatched.
+    """Mono/bi/multistable regions over (U/l₀, C) with the transition band hatched. C is
+    drawn on a log axis when the map spans more than a decade of it.
 
     Parameters
     ----------
@@ -139,7 +155,8 @@ def stability_map(ds: Any, *, ax: Axes | None = None, legend: bool = True) -> Ax
     ax = _new_axes(ax, COLUMN_FIGSIZE)
     reg = ds["regime"].transpose("C", "displacement").values
     u, c = ds["displacement"].values, ds["C"].values
-    ue, ce = grid_edges(u), grid_edges(c)
+    log_c = _spans_decades(c)
+    ue, ce = grid_edges(u), grid_edges(c, log=log_c)
     cmap = ListedColormap((NONE_COLOR, *REGIME_COLORS)).with_extremes(bad="white")
     norm = BoundaryNorm([-0.5, 0.5, 1.5, 2.5, 3.5], cmap.N)
     ax.pcolormesh(ue, ce, np.ma.masked_invalid(reg), cmap=cmap, norm=norm, shading="flat")
@@ -155,6 +172,8 @@ def stability_map(ds: Any, *, ax: Axes | None = None, legend: bool = True) -> Ax
         outline = _band_outline(band, ue, ce)
         if outline:
             ax.add_collection(LineCollection(outline, colors="k", linewidths=0.8))
+    if log_c:
+        ax.set_yscale("log")
     ax.set_xlim(ue[0], ue[-1])
     ax.set_ylim(ce[0], ce[-1])
     if legend:  # only what the map holds
