@@ -13,6 +13,7 @@ import ast
 import inspect
 import re
 import textwrap
+from dataclasses import replace
 from pathlib import Path
 
 import numpy as np
@@ -132,6 +133,17 @@ def _design_map(good: bool) -> xr.Dataset:
     return xr.Dataset({"u_z": (("b", "C"), u_z), "u_r": (("b", "C"), u_r)}, coords={"b": b, "C": c})
 
 
+def _instability_map(good: bool) -> xr.Dataset:
+    """F* over (b, C): low where the paper puts the transformation (low b, low C) when good,
+    everywhere above the ramp otherwise (one design failed: NaN)."""
+    b, c = [0.45, 0.58, 0.7], [0.05, 0.4, 3.0]
+    force = np.array([[1.2, 1.5, 1.9], [1.4, 1.7, 2.1], [1.55, 1.9, 2.2]])
+    if not good:
+        force = force + 1.0
+        force[0, 0] = np.nan
+    return xr.Dataset({"force": (("b", "C"), force)}, coords={"b": b, "C": c})
+
+
 def _stability_map(good: bool) -> xr.Dataset:
     regime = np.array([[1, 2, 3], [1, 3, 2], [1, 1, 2]] if good else [[1, 1, 1]] * 2 + [[3, 1, 1]])
     band = np.zeros((3, 3), dtype=np.int8)
@@ -196,6 +208,7 @@ def _results(good: bool) -> Results:
     return Results(
         semi=_semi(good),
         design_map=_design_map(good),
+        instability_map=_instability_map(good),
         stability_map=_stability_map(good),
         validation=ValidationFacts(0.02, 0.1 if good else 0.9, 50, not good, "test"),
         states=_states(good),
@@ -255,6 +268,19 @@ def test_distributed_onset_with_serrated_completion_is_partly() -> None:
     calm = np.zeros(semi.force.size, dtype=bool)
     results.semi = replace(semi, force=force, switched=calm)
     assert assess(results, [claim])[0].finding.verdict is Verdict.REPRODUCED
+
+
+def test_within_ramp_reports_where_the_instability_map_transforms_within_the_ramp() -> None:
+    """The map's part of the reason: how many designs have F* ≤ 1.6 N, the lowest F* and the
+    largest C among them, computed from the map (a failed design, NaN, is not counted)."""
+    claim = next(c for c in CLAIMS if c.id == "fig3.A2.within_ramp")
+    good = assess(_results(True), [claim])[0].finding.reason
+    assert "F* ≤ 1.6 N at 4 of 9 designs" in good
+    assert "lowest F* = 1.2 N at b = 0.45, C = 0.05 (C ≤ 0.4)" in good
+    bad = assess(_results(False), [claim])[0].finding.reason
+    assert "F* ≤ 1.6 N at 0 of 9 designs" in bad and "lowest F* = 2.4 N at b = 0.58" in bad
+    no_map = replace(_results(True), instability_map=None)
+    assert "map" not in assess(no_map, [claim])[0].finding.reason
 
 
 def test_failed_stage_is_reported_not_computed() -> None:
