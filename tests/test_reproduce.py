@@ -276,7 +276,7 @@ def test_within_ramp_reports_where_the_instability_map_transforms_within_the_ram
     claim = next(c for c in CLAIMS if c.id == "fig3.A2.within_ramp")
     good = assess(_results(True), [claim])[0].finding.reason
     assert "F* ≤ 1.6 N at 4 of 9 designs" in good
-    assert "lowest F* = 1.2 N at b = 0.45, C = 0.05 (C ≤ 0.4)" in good
+    assert "lowest F* = 1.2 N at b = 0.45, C = 0.05 (all at C ≤ 0.4)" in good
     bad = assess(_results(False), [claim])[0].finding.reason
     assert "F* ≤ 1.6 N at 0 of 9 designs" in bad and "lowest F* = 2.4 N at b = 0.58" in bad
     no_map = replace(_results(True), instability_map=None)

@@ -341,7 +341,7 @@ def _instability_region(ds: Any) -> str:
         f"lowest F* = {_fmt(float(f[i, j]), 3)} N at b = {b[i]:.3g}, C = {c[j]:.3g}"
     )
     if inside.any():
-        text += f" (C ≤ {c[np.flatnonzero(inside.any(axis=0)).max()]:.3g})"
+        text += f" (all at C ≤ {c[np.flatnonzero(inside.any(axis=0)).max()]:.3g})"
     return text
 
 
