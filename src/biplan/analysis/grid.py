@@ -136,8 +136,8 @@ def parse_axis(name: str, spec: Sequence[float] | str | np.ndarray) -> GridAxis:
                 raise ConfigError(name, spec, "START ≠ STOP when N > 1")
             if log and min(start, stop) <= 0:
                 raise ConfigError(name, spec, "START:STOP:Nlog with START > 0 and STOP > 0")
-            values = np.geomspace(start, stop, n) if log else np.linspace(start, stop, n)
-            return GridAxis(name, tuple(values.tolist()))
+            spaced = np.geomspace(start, stop, n) if log else np.linspace(start, stop, n)
+            return GridAxis(name, tuple(spaced.tolist()))
         try:
             values = [float(v) for v in spec.split(",") if v.strip()]
         except ValueError:
