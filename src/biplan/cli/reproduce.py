@@ -182,8 +182,14 @@ def _linspace(spec: tuple[float, float, int]) -> list[float]:
 
 
 def _logspace(spec: tuple[float, float, int]) -> list[float]:
-    start, stop, n = spec
-    return [round(float(x), 6) for x in np.geomspace(start, stop, n)]
+    return [float(x) for x in np.geomspace(*spec)]
+
+
+def _design_grid(s: Settings) -> Any:
+    """The (b, C) grid of the design and first-instability maps: b even, C log-spaced."""
+    from biplan.analysis.sweeps import Grid
+
+    return Grid.of(b=_linspace(s.design_b), C=_logspace(s.design_c))
 
 
 # --- stages ----------------------------------------------------------------------------------
@@ -332,13 +338,10 @@ def _stage_design_map(ctx: _Context) -> None:
     import matplotlib.pyplot as plt
 
     from biplan.analysis.design_map import ForceRamp, ResponseEvaluator
-    from biplan.analysis.sweeps import Grid
     from biplan.plot.maps import design_map
 
-    s = ctx.settings
-    grid = Grid.of(b=_linspace(s.design_b), C=_logspace(s.design_c))
-    ev = ResponseEvaluator(ForceRamp(n_steps=s.ramp_steps))
-    ds = run_map_python(_semi(ctx), grid, ev, ctx.out / "design_map", 4)
+    ev = ResponseEvaluator(ForceRamp(n_steps=ctx.settings.ramp_steps))
+    ds = run_map_python(_semi(ctx), _design_grid(ctx.settings), ev, ctx.out / "design_map", 4)
     fig, axes = plt.subplots(1, 2, figsize=(7.0, 2.8), layout="constrained")
     design_map(ds, "u_z", ax=axes[0])
     design_map(ds, "u_r", ax=axes[1])
@@ -353,13 +356,11 @@ def _stage_instability_map(ctx: _Context) -> None:
     import matplotlib.pyplot as plt
 
     from biplan.analysis.instability_map import InstabilityEvaluator
-    from biplan.analysis.sweeps import Grid
     from biplan.plot.maps import design_map
     from biplan.plot.response import COLUMN_FIGSIZE
 
-    s = ctx.settings
-    grid = Grid.of(b=_linspace(s.design_b), C=_logspace(s.design_c))
     ev = InstabilityEvaluator(up_to=INSTABILITY_UP_TO)
+    grid = _design_grid(ctx.settings)
     ds = run_map_python(_semi(ctx), grid, ev, ctx.out / "instability_map", 4)
     fig, ax = plt.subplots(figsize=COLUMN_FIGSIZE, layout="constrained")
     design_map(ds, "force", ax=ax, highlight=RAMP_FORCE)
