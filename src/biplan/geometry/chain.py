@@ -163,13 +163,22 @@ def reference_frames(layout: TubeLayout, geom: GeometryParams) -> tuple[Array, A
     """Reference nodes (N, 7, 2) [mm], crease tangents n_c (N, 2) and opening normals n_sp
     (N, 2) of every module, in its own frame."""
     h, h1, _, _ = spans(geom.radius, geom.pitch, geom.beta)
+    kinds, index = _shape_kinds(layout)
     nodes, ncs, nsps = [], [], []
-    for shape in layout.shapes:
-        nodes.append(reference_nodes(shape.kind, shape.mirror, geom.pitch, h, h1))
-        n_c, n_sp = directions(shape.kind, shape.mirror, geom.beta)
+    for kind, mirror in kinds:  # each distinct module shape once: the graph does not grow with N
+        nodes.append(reference_nodes(kind, mirror, geom.pitch, h, h1))
+        n_c, n_sp = directions(kind, mirror, geom.beta)
         ncs.append(n_c)
         nsps.append(n_sp)
-    return jnp.stack(nodes), jnp.stack(ncs), jnp.stack(nsps)
+    return jnp.stack(nodes)[index], jnp.stack(ncs)[index], jnp.stack(nsps)[index]
+
+
+@functools.lru_cache(maxsize=128)
+def _shape_kinds(layout: TubeLayout) -> tuple[tuple[Any, ...], np.ndarray]:
+    """The distinct (kind, mirror) of a layout's modules and each module's index into them."""
+    kinds = tuple(dict.fromkeys((s.kind, s.mirror) for s in layout.shapes))
+    index = np.asarray([kinds.index((s.kind, s.mirror)) for s in layout.shapes], np.int32)
+    return kinds, index
 
 
 def line_height(qm: Array, ref: Array, el: Array, z_edge: Array, s: Array) -> Array:

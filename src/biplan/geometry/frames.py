@@ -1,4 +1,4 @@
-"""The chain of module frames as a scan: per-connector increments, composed by angle sums.
+"""The chain of module frames: per-connector increments, composed by angle sums.
 
 Under the paper's chain (MODEL R1 ``EXACT`` offset, R3 ``ELEMENT`` attachment) the frame of
 the module above connector c is the frame below it times a planar rigid increment
@@ -10,7 +10,8 @@ x_upper, γ_c) (:mod:`biplan.geometry.chain`, module docstring)::
 Planar rotations compose by adding angles, so the frame of module n is a cumulative sum over
 the chain: θ_n = Σ α_c, P_n = Σ R(θ_c−1) t_c. :func:`increments` evaluates every A_c at once
 (``vmap`` over connectors, the connector's kind as data) and :func:`top_frame` composes them
-with ``lax.scan``: the traced graph, and what XLA compiles, do not grow with N. The result
+by cumulative sums: the traced graph, and what XLA compiles, do not grow with N, and no loop
+runs inside the compiled kernels. The result
 equals the general frame construction of :func:`biplan.geometry.chain.kinematics` (tested).
 """
 
@@ -33,7 +34,17 @@ from biplan.geometry.module import PIVOT, node_positions, rotation
 from biplan.geometry.tube import TubeLayout
 from biplan.options import ChainAttachment, ChainOffset
 
-__all__ = ["ChainIndex", "chain_index", "increments", "load_point_height", "scannable", "top_frame"]
+__all__ = [
+    "ChainIndex",
+    "chain_index",
+    "increment",
+    "increment_data",
+    "increments",
+    "load_point",
+    "load_point_height",
+    "scannable",
+    "top_frame",
+]
 
 Array = Any
 
@@ -97,7 +108,7 @@ def chain_index(layout: TubeLayout) -> ChainIndex:
     )
 
 
-def _increment(
+def increment(
     x: Array,
     ref_lower: Array,
     ref_upper: Array,
@@ -108,7 +119,8 @@ def _increment(
     height: Array,
     pitch: Array,
 ) -> Array:
-    """(α, t_z, t_s) of one connector's frame increment A_c from x_c (module docstring)."""
+    """(α, t_z, t_s) of one connector's frame increment A_c from x_c (module docstring); the
+    arguments after x_c are one row of :func:`increment_data`."""
     lo, up, gam = x[:3], x[3:6], x[6]
     zero = jnp.zeros(())
     z_up = line_height(up, ref_upper, up_el, zero, zero)
@@ -123,12 +135,10 @@ def _increment(
     return jnp.concatenate([angle[None], t])
 
 
-def increments(layout: TubeLayout, geom: GeometryParams, q: Array, ref: Array) -> Array:
-    """Frame increments (Nc, 3) = (α [rad], t_z, t_s [mm]) of every connector."""
+def increment_data(layout: TubeLayout, ref: Array) -> tuple[Array, ...]:
+    """The per-connector arguments of :func:`increment` after x_c (one row per connector)."""
     idx = chain_index(layout)
-    fn = functools.partial(_increment, pitch=geom.pitch)
-    return jax.vmap(fn)(
-        q[idx.dofs],
+    return (
         ref[idx.lower],
         ref[idx.upper],
         idx.element,
@@ -139,31 +149,44 @@ def increments(layout: TubeLayout, geom: GeometryParams, q: Array, ref: Array) -
     )
 
 
+def increments(layout: TubeLayout, geom: GeometryParams, q: Array, ref: Array) -> Array:
+    """Frame increments (Nc, 3) = (α [rad], t_z, t_s [mm]) of every connector."""
+    fn = functools.partial(increment, pitch=geom.pitch)
+    return jax.vmap(fn)(q[chain_index(layout).dofs], *increment_data(layout, ref))
+
+
 def top_frame(incs: Array) -> tuple[Array, Array]:
-    """(θ [rad], P (2,) [mm]) of the top module: the increments composed up the chain."""
+    """(θ [rad], P (2,) [mm]) of the top module: the increments composed up the chain,
+    θ = Σ α_c and P = Σ_c R(θ_c−1) t_c with θ_c−1 the exclusive cumulative sum of α."""
+    alpha = incs[:, 0]
+    before = jnp.concatenate([jnp.zeros(1), jnp.cumsum(alpha)[:-1]])
+    c, s = jnp.cos(before), jnp.sin(before)
+    tz, ts = incs[:, 1], incs[:, 2]
+    return alpha.sum(), jnp.stack([(c * tz - s * ts).sum(), (s * tz + c * ts).sum()])
 
-    def step(carry: tuple[Array, Array], inc: Array) -> tuple[tuple[Array, Array], None]:
-        theta, pos = carry
-        return (theta + inc[0], pos + rotation(theta) @ inc[1:]), None
 
-    (theta, pos), _ = jax.lax.scan(step, (jnp.zeros(()), jnp.zeros(2)), incs)
-    return theta, pos
-
-
-def _load_point(layout: TubeLayout, geom: GeometryParams, q: Array) -> Array:
-    ref, _, _ = reference_frames(layout, geom)
-    theta, pos = top_frame(increments(layout, geom, q, ref))
-    n = layout.n_modules
-    local = node_positions(q[3 * n - 3 : 3 * n], ref[n - 1])  # (7, 2) top module
-    nodes = local @ rotation(theta).T + pos
+def load_point(
+    layout: TubeLayout, geom: GeometryParams, incs: Array, x_top: Array, ref_top: Array
+) -> Array:
+    """Axial position z [mm] of the load point (MODEL W1) from the connectors' increments
+    (Nc, 3) and the top module's coordinates x_top (3,) with its reference nodes ref_top."""
+    theta, pos = top_frame(incs)
+    nodes = node_positions(x_top, ref_top) @ rotation(theta).T + pos
     segs = jnp.stack(
         [jnp.stack([nodes[i0], nodes[i1]]) for _, i0, i1 in tables(layout).end_segments]
     )
     return load_point_of_edge(layout, geom, segs)
 
 
+def _load_point(layout: TubeLayout, geom: GeometryParams, q: Array) -> Array:
+    ref, _, _ = reference_frames(layout, geom)
+    n = layout.n_modules
+    incs = increments(layout, geom, q, ref)
+    return load_point(layout, geom, incs, q[3 * n - 3 : 3 * n], ref[n - 1])
+
+
 def load_point_height(layout: TubeLayout, geom: GeometryParams, q: Array) -> Array:
-    """z_p(q) [mm] (MODEL W1) through the scanned chain; equals
+    """z_p(q) [mm] (MODEL W1) through the composed increments; equals
     :func:`biplan.geometry.chain.load_height` on a :func:`scannable` layout. The reference
     point (q = 0) depends on the geometry, not on q: it carries the derivatives with respect
     to R, l and β (design sensitivities)."""
