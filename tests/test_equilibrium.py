@@ -478,7 +478,7 @@ def test_watchdog_reaches_the_same_equilibrium_with_fewer_residuals(model6, refe
     out = {}
     for free in (0, 8):
         settings = Newton(max_backtracks=12, free_steps=free).settings()
-        out[free] = compiled_loop(model6.layout)(model6.params, z0, load, settings)
+        out[free] = compiled_loop(model6.layout)(model6.params, z0, load, settings)[0]
         assert int(out[free].status) == Status.CONVERGED.value
     n = model6.n_coordinates
     assert np.allclose(out[8].z[:n], out[0].z[:n], atol=1e-9)
@@ -500,7 +500,7 @@ def test_traced_watchdog_of_length_zero_takes_the_plain_iterates(model1):
     settings = Newton(max_steps=40, free_steps=0).settings()
     for _ in range(4):
         z0 = jnp.asarray(model1.pack(rng.normal(scale=0.3, size=model1.n_coordinates)))
-        a = compiled_loop(model1.layout)(model1.params, z0, load, settings)
+        a = compiled_loop(model1.layout)(model1.params, z0, load, settings)[0]
         b = plain(model1.params, z0, load, settings)
         for field in ("z", "status", "steps", "evals"):
             np.testing.assert_array_equal(np.asarray(getattr(a, field)),
@@ -513,3 +513,17 @@ def test_watchdog_length_is_checked():
     with pytest.raises(ConfigError, match="free_steps"):
         Newton(free_steps=2.0)
     assert Newton(max_steps=5, free_steps=5).free_steps == 5
+
+
+def test_state_returned_by_the_solve_equals_a_fresh_evaluation(model6, reference6):
+    """The solve kernel returns the state's data from the Jacobian of its last Newton pass
+    (``assembly.state_from_jacobian``); it equals ``state_data`` evaluated afresh at the
+    solution, under force and displacement control."""
+    for load in (Load.of_force(1.2), Load.of_displacement(2.0)):
+        sol = biplan.solve_equilibrium(model6, Newton(), reference6, load)
+        assert sol.converged
+        fresh = model6.state(sol.z, load)
+        for name in fresh._fields:
+            a, b = getattr(sol.data, name), getattr(fresh, name)
+            for x, y in zip(np.atleast_1d(a), np.atleast_1d(b), strict=True):
+                np.testing.assert_allclose(x, y, rtol=0, atol=1e-10 * max(1.0, np.max(np.abs(y))))

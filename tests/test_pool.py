@@ -78,7 +78,7 @@ def test_pool_equals_one_newton_loop_per_task(tasks) -> None:
     loop = compiled_loop(m.layout)
     for i in np.flatnonzero(conv)[::4]:
         load = Load(jnp.asarray(0.0), jnp.asarray(uu[i]), jnp.asarray(1.0))
-        sol = loop(m.params, jnp.asarray(z0[i]), load, settings)
+        sol = loop(m.params, jnp.asarray(z0[i]), load, settings)[0]
         assert int(sol.status) == Status.CONVERGED.value
         assert np.allclose(np.asarray(sol.z), np.asarray(ref.z)[i], rtol=0, atol=1e-9)
 
@@ -100,7 +100,7 @@ def test_stability_from_the_kkt_jacobian_equals_the_fresh_hessian(tasks) -> None
     lams = []
     for z, u in zip(z0[::3], uu[::3], strict=True):
         load = Load(jnp.asarray(0.0), jnp.asarray(u), jnp.asarray(1.0))
-        sol = loop(m.params, jnp.asarray(z), load, settings)
+        sol = loop(m.params, jnp.asarray(z), load, settings)[0]
         if int(sol.status) != Status.CONVERGED.value:
             continue
         lam, ref = both(m.params, sol.z, load)

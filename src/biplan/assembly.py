@@ -53,6 +53,7 @@ __all__ = [
     "residual",
     "sizes",
     "state_data",
+    "state_from_jacobian",
 ]
 
 Array = Any
@@ -352,6 +353,28 @@ def state_data(layout: TubeLayout, p: ModelParams, z: Array, load: Load) -> Stat
         lagrangian_hessian=_lagrangian_hessian(p, local, chain_part, coef),
         constraint_jacobian=jnp.concatenate(
             [local.guide_jacobian, local.gap_jacobian, chain_part.gradient[None]]
+        ),
+        gaps=local.gaps,
+    )
+
+
+def state_from_jacobian(
+    layout: TubeLayout, p: ModelParams, z: Array, load: Load, jac: Array
+) -> StateData:
+    """:func:`state_data` at z from the KKT Jacobian at z (:func:`kkt_jacobian`): K, G and C
+    are its blocks, so only first-order terms are evaluated (what a solver returns with its
+    solution, whose last Newton pass has the Jacobian at hand)."""
+    nq, ng, nc = _sizes(layout)
+    local, chain_part, _, q = _terms(layout, p, z, load, second_order=False)
+    return StateData(
+        energy=local.helical_energy.sum() + local.circular_energy.sum(),
+        helical_energy=local.helical_energy,
+        circular_energy=local.circular_energy,
+        load_displacement=chain_part.value,
+        endpoint=chain.endpoint(layout, p.geometry, q),
+        lagrangian_hessian=jac[:nq, :nq],
+        constraint_jacobian=jnp.concatenate(
+            [jac[nq : nq + ng, :nq], -jac[:nq, nq + ng : nq + ng + nc].T, chain_part.gradient[None]]
         ),
         gaps=local.gaps,
     )

@@ -219,7 +219,7 @@ def _contact_start(model: Model, q: np.ndarray, lam_c: np.ndarray) -> np.ndarray
 
 
 def _refine(model: Model, neb: NudgedElasticBand, z0: np.ndarray) -> tuple[np.ndarray, int, float]:
-    out = compiled_loop(model.layout)(
+    out, _ = compiled_loop(model.layout)(
         model.params, jnp.asarray(z0), _zero_load(), neb.refine.settings()
     )
     return np.asarray(out.z), int(out.status), float(np.max(np.abs(np.asarray(out.r))))

@@ -145,9 +145,9 @@ class _Stepper:
         """Newton at ``value`` from z (``params``: a biased problem of :meth:`relax`, solved
         inexactly: ``SUB_STEPS`` iterations, converged below ``SUB_TOLERANCE``)."""
         if params is None:
-            out = self.loop(self.model.params, jnp.asarray(z), self.load(value), self.settings)
+            out, _ = self.loop(self.model.params, jnp.asarray(z), self.load(value), self.settings)
             return np.asarray(out.z), int(out.status) == Status.CONVERGED.value
-        out = self.loop(params, jnp.asarray(z), self.load(value), self.sub_settings)
+        out, _ = self.loop(params, jnp.asarray(z), self.load(value), self.sub_settings)
         close = float(np.max(np.abs(np.asarray(out.r)))) <= SUB_TOLERANCE
         return np.asarray(out.z), int(out.status) == Status.CONVERGED.value or close
 

@@ -309,14 +309,14 @@ def displacement_sweep(
         sol, stab, switched = _advance(model, solver, current, float(target), select_stable)
         if sol.converged and stab is not None:
             current = sol
-            e = model.endpoint(sol.q)
+            e = sol.data.endpoint  # evaluated by the solve with the rest of the state
             rows.append(
                 (
                     target,
                     sol.force,
-                    e.u_z,
-                    e.u_r,
-                    e.theta,
+                    float(e.u_z),
+                    float(e.u_r),
+                    float(e.theta),
                     sol.energy,
                     stab.min_eigenvalue,
                     stab.stable,

@@ -20,7 +20,7 @@ from biplan import _linalg as linalg
 from biplan._errors import ConfigError, ConvergenceError, check_integer, check_range
 from biplan._jax import jax, jnp, kernel_options
 from biplan._kernels import stored_jit
-from biplan.assembly import Load, Model, StateData, TubeLayout, kernels
+from biplan.assembly import Load, Model, StateData, TubeLayout, kernels, state_from_jacobian
 
 __all__ = ["Newton", "Solution", "Status", "relaxed_reference", "solve_equilibrium"]
 
@@ -412,11 +412,20 @@ def newton_loop(
     return finish(jax.lax.while_loop(cond, body, init(z0)))
 
 
+def solve_loop(
+    layout: TubeLayout, params: Any, z0: Array, load: Load, settings: Array
+) -> tuple[LoopState, StateData]:
+    """:func:`newton_loop` (watchdog length traced) and the :class:`StateData` of its last
+    iterate, taken from the Jacobian the loop evaluated there (no second assembly)."""
+    out = newton_loop(layout, params, z0, load, settings, free_steps=None)
+    return out, state_from_jacobian(layout, params, out.z, load, out.jac)
+
+
 @functools.lru_cache(maxsize=64)
 def compiled_loop(layout: TubeLayout) -> Any:
-    """The jitted Newton loop of a layout (built once; the watchdog length is traced, so
-    every :class:`Newton` shares it)."""
-    fn = functools.partial(newton_loop, layout, free_steps=None)
+    """The jitted :func:`solve_loop` of a layout, ``(LoopState, StateData)`` (built once;
+    the watchdog length is traced, so every :class:`Newton` shares it)."""
+    fn = functools.partial(solve_loop, layout)
     return stored_jit(fn, "newton_loop", layout, kernel_options(runs_often=True))
 
 
@@ -507,11 +516,18 @@ def _start_vector(model: Model, start: Any) -> np.ndarray:
 
 
 def make_solution(
-    model: Model, z: np.ndarray, load: Load, status: Status, rnorm: float, it: int
+    model: Model,
+    z: np.ndarray,
+    load: Load,
+    status: Status,
+    rnorm: float,
+    it: int,
+    data: StateData | None = None,
 ) -> Solution:
-    """Wrap a packed solution vector into a :class:`Solution`."""
+    """Wrap a packed solution vector into a :class:`Solution` (``data``: its
+    :class:`StateData` when the solver returned it; else evaluated here)."""
     q, lam, lam_c, mu = model.split(z)
-    data = model.state(z, load)
+    data = model.state(z, load) if data is None else jax.tree_util.tree_map(np.asarray, data)
     zp = float(data.load_displacement)
     force = -mu if load.is_displacement_controlled else float(load.force)
     return Solution(
@@ -565,19 +581,19 @@ def solve_equilibrium(
     z0 = _start_vector(model, model.zeros() if start is None else start)
     loop = compiled_loop(model.layout)
     jload = load.for_kernel()
-    out = loop(model.params, jnp.asarray(z0), jload, solver.settings())
+    out, data = loop(model.params, jnp.asarray(z0), jload, solver.settings())
     steps, restarts = int(out.steps), 0
     q0, lam0, lam_c0, mu0 = model.split(z0)
     if solver.contact_restart and int(out.status) != Status.CONVERGED.value and np.any(lam_c0):
         # the start's contact multipliers can be smoothing artefacts (Newton.contact_restart)
         cold = model.pack(q0, lam0, None, mu0)
-        retry = loop(model.params, jnp.asarray(cold), jload, solver.settings())
+        retry, retry_data = loop(model.params, jnp.asarray(cold), jload, solver.settings())
         restarts, steps = 1, steps + int(retry.steps)
         if int(retry.status) == Status.CONVERGED.value:
-            out = retry
+            out, data = retry, retry_data
     status = Status(int(out.status))
     rnorm = float(np.max(np.abs(np.asarray(out.r))))
-    sol = make_solution(model, np.asarray(out.z), load, status, rnorm, steps)
+    sol = make_solution(model, np.asarray(out.z), load, status, rnorm, steps, data)
     sol = replace(sol, restarts=restarts) if restarts else sol
     if throw and not sol.converged:
         raise ConvergenceError(f"equilibrium solve for {load}: {sol.message}")
