@@ -341,21 +341,37 @@ class StateData(NamedTuple):
     gaps: Array
 
 
-def state_data(layout: TubeLayout, p: ModelParams, z: Array, load: Load) -> StateData:
-    """Energy split, endpoint, Lagrangian Hessian and constraint Jacobians at z."""
-    local, chain_part, coef, q = _terms(layout, p, z, load, second_order=True)
+def _state(
+    layout: TubeLayout,
+    p: ModelParams,
+    z: Array,
+    load: Load,
+    second_order: bool,
+    blocks: Any,
+) -> StateData:
+    """StateData at z; ``blocks(local, chain_part, coef)`` gives (K, G, C)."""
+    local, chain_part, coef, q = _terms(layout, p, z, load, second_order)
+    k, g_mat, c_mat = blocks(local, chain_part, coef)
     return StateData(
         energy=local.helical_energy.sum() + local.circular_energy.sum(),
         helical_energy=local.helical_energy,
         circular_energy=local.circular_energy,
         load_displacement=chain_part.value,
         endpoint=chain.endpoint(layout, p.geometry, q),
-        lagrangian_hessian=_lagrangian_hessian(p, local, chain_part, coef),
-        constraint_jacobian=jnp.concatenate(
-            [local.guide_jacobian, local.gap_jacobian, chain_part.gradient[None]]
-        ),
+        lagrangian_hessian=k,
+        constraint_jacobian=jnp.concatenate([g_mat, c_mat, chain_part.gradient[None]]),
         gaps=local.gaps,
     )
+
+
+def state_data(layout: TubeLayout, p: ModelParams, z: Array, load: Load) -> StateData:
+    """Energy split, endpoint, Lagrangian Hessian and constraint Jacobians at z."""
+
+    def blocks(local: Any, chain_part: Any, coef: Array) -> tuple[Array, Array, Array]:
+        k = _lagrangian_hessian(p, local, chain_part, coef)
+        return k, local.guide_jacobian, local.gap_jacobian
+
+    return _state(layout, p, z, load, True, blocks)
 
 
 def state_from_jacobian(
@@ -365,19 +381,11 @@ def state_from_jacobian(
     are its blocks, so only first-order terms are evaluated (what a solver returns with its
     solution, whose last Newton pass has the Jacobian at hand)."""
     nq, ng, nc = _sizes(layout)
-    local, chain_part, _, q = _terms(layout, p, z, load, second_order=False)
-    return StateData(
-        energy=local.helical_energy.sum() + local.circular_energy.sum(),
-        helical_energy=local.helical_energy,
-        circular_energy=local.circular_energy,
-        load_displacement=chain_part.value,
-        endpoint=chain.endpoint(layout, p.geometry, q),
-        lagrangian_hessian=jac[:nq, :nq],
-        constraint_jacobian=jnp.concatenate(
-            [jac[nq : nq + ng, :nq], -jac[:nq, nq + ng : nq + ng + nc].T, chain_part.gradient[None]]
-        ),
-        gaps=local.gaps,
-    )
+
+    def blocks(*_: Any) -> tuple[Array, Array, Array]:
+        return jac[:nq, :nq], jac[nq : nq + ng, :nq], -jac[:nq, nq + ng : nq + ng + nc].T
+
+    return _state(layout, p, z, load, False, blocks)
 
 
 def curvature(
