@@ -230,16 +230,16 @@ def local_terms(
     grad_m, cons_m, helical_energy, hess_m, jac_m = _evaluate(mod_lag, mod_values, second_order)(
         q[topo.module_dofs], mult, ref, n_c, n_sp, p.helical
     )
-    nq, ncr, mod = topo.n_coordinates, topo.n_contacts, topo.module_dofs
+    nq, ncr, mod, rows = layout.n_coordinates, topo.n_contacts, topo.module_dofs, topo.module_rows
     gradient = place_vector(mod, grad_m, nq)
-    gaps = place_vector(topo.helical_gap_rows, cons_m[:, 2:], ncr)
+    gaps = place_vector(rows, cons_m[:, 2:], ncr)
     hessian: Array = None
     guide_jac: Array = None
     gap_jac: Array = None
     if second_order:
         hessian = place_matrix(mod, hess_m, mod, (nq, nq))
-        guide_jac = place_matrix(topo.guide_rows, jac_m[:, :2], mod, (2 * n, nq))
-        gap_jac = place_matrix(topo.helical_gap_rows, jac_m[:, 2:], mod, (ncr, nq))
+        guide_jac = place_matrix(rows, jac_m[:, :2], mod, (2 * n, nq))
+        gap_jac = place_matrix(rows, jac_m[:, 2:], mod, (ncr, nq))
     circular_energy = jnp.zeros((0,))
 
     if nc:

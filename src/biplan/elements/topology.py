@@ -47,9 +47,7 @@ class Topology(NamedTuple):
     lower: np.ndarray  # (Nc,) lower module (0 for the clamp: its rows never enter)
     upper: np.ndarray  # (Nc,)
     connector_dof_mask: np.ndarray  # (Nc, 7) float 1/0: 0 for the clamp's (absent) dofs
-    guide_rows: np.ndarray  # (N, 2) global guide row of each module's guides
-    helical_gap_rows: np.ndarray  # (N, 2) global contact row of each module's helical gaps
-    n_coordinates: int
+    module_rows: np.ndarray  # (N, 2) rows 2n, 2n + 1: module n's guides and helical gaps
     n_contacts: int
 
 
@@ -132,8 +130,6 @@ def topology(layout: TubeLayout) -> Topology:
         np.asarray(upper, dtype=np.int32),
         dof_mask,
         rows,
-        rows,
-        layout.n_coordinates,
         contact_row,
     )
 

@@ -416,7 +416,8 @@ def solve_loop(
     layout: TubeLayout, params: Any, z0: Array, load: Load, settings: Array
 ) -> tuple[LoopState, StateData]:
     """:func:`newton_loop` (watchdog length traced) and the :class:`StateData` of its last
-    iterate, taken from the Jacobian the loop evaluated there (no second assembly)."""
+    iterate, taken from the Jacobian the loop evaluated there (no second assembly; valid once
+    the loop accepted a pass, i.e. its merit ``f`` is finite)."""
     out = newton_loop(layout, params, z0, load, settings, free_steps=None)
     return out, state_from_jacobian(layout, params, out.z, load, out.jac)
 
@@ -593,6 +594,9 @@ def solve_equilibrium(
             out, data = retry, retry_data
     status = Status(int(out.status))
     rnorm = float(np.max(np.abs(np.asarray(out.r))))
+    # the loop's Jacobian is at its iterate once a pass was accepted (finite merit); a solve
+    # whose start was already non-finite has none, and its state is evaluated afresh
+    data = data if np.isfinite(float(out.f)) else None
     sol = make_solution(model, np.asarray(out.z), load, status, rnorm, steps, data)
     sol = replace(sol, restarts=restarts) if restarts else sol
     if throw and not sol.converged:
