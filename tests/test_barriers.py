@@ -154,3 +154,38 @@ def test_deflation_finds_the_saddle_between_two_wells(model1, states1):
         sol = make_solution(model1, e.z, biplan.Load.of_force(0.0), Status.CONVERGED, e.residual, 0)
         assert classify(model1, sol).stable == e.stable
         assert (e.n_negative == 0) == e.stable
+
+
+def test_deflated_jacobian_is_the_derivative_and_gives_the_sherman_morrison_step(model1, states1):
+    """The deflated system's Jacobian M J + r ∇Mᵀ equals central finite differences of M r, and
+    its Newton step is the undeflated step d scaled by 1 / (1 − ∇η · d_q)."""
+    from biplan._jax import jax, jnp
+    from biplan.analysis.deflation import deflated_system
+
+    nq = model1.n_coordinates
+    roots = np.stack([s.z[:nq] for s in states1])
+    mask = np.ones(len(roots), dtype=bool)
+    residual, jacobian, log_m = deflated_system(
+        model1.layout, model1.params, jnp.asarray(roots), jnp.asarray(mask), 2.0, 1.0
+    )
+    rng = np.random.default_rng(3)
+    z = states1[0].z + 0.05 * rng.standard_normal(states1[0].z.shape)
+    jac = np.asarray(jacobian(jnp.asarray(z)))
+    h = 1e-6
+    fd = np.stack(
+        [
+            (
+                np.asarray(residual(jnp.asarray(z + h * e)))
+                - np.asarray(residual(jnp.asarray(z - h * e)))
+            )
+            / (2 * h)
+            for e in np.eye(len(z))
+        ],
+        axis=1,
+    )
+    np.testing.assert_allclose(jac, fd, rtol=1e-6, atol=1e-6 * np.max(np.abs(jac)))
+    load = biplan.Load.of_force(0.0)
+    d = -np.linalg.solve(model1.jacobian(z, load), model1.residual(z, load))
+    grad = np.asarray(jax.grad(log_m)(jnp.asarray(z[:nq])))
+    step = -np.linalg.solve(jac, np.asarray(residual(jnp.asarray(z))))
+    np.testing.assert_allclose(step, d / (1.0 - grad @ d[:nq]), rtol=1e-8, atol=1e-12)

@@ -156,7 +156,7 @@ def test_snap_cascade_with_contact_impacts_is_finished(model6, loaded):
     assert (traj.phase_fraction[-1, n:, 2] > 0.5).any()  # circular folds opened
     assert traj.u_z[-1] > 5 * traj.u_z[0]
     # strongly typed initial state: later chunks reuse the first compilation
-    assert dk.compiled_chunk(model6.layout)._cache_size() == 1
+    assert dk.chunk.compiled(model6.layout)._cache_size() == 1
 
 
 def test_bad_dynamics_inputs(model6):

@@ -471,14 +471,14 @@ def test_watchdog_reaches_the_same_equilibrium_with_fewer_residuals(model6, refe
     Fischer–Burmeister rows is so curved that the line search rejects converging full steps;
     the watchdog takes them (the design map's first load steps, docs/maps.md)."""
     from biplan._jax import jnp
-    from biplan.solvers.newton import compiled_loop
+    from biplan.solvers.newton import solve_loop
 
     load = Load(jnp.asarray(0.1), jnp.asarray(0.0), jnp.asarray(0.0))
     z0 = jnp.asarray(reference6.z)
     out = {}
     for free in (0, 8):
         settings = Newton(max_backtracks=12, free_steps=free).settings()
-        out[free] = compiled_loop(model6.layout)(model6.params, z0, load, settings)[0]
+        out[free] = solve_loop.compiled(model6.layout)(model6.params, z0, load, settings)[0]
         assert int(out[free].status) == Status.CONVERGED.value
     n = model6.n_coordinates
     assert np.allclose(out[8].z[:n], out[0].z[:n], atol=1e-9)
@@ -491,7 +491,7 @@ def test_traced_watchdog_of_length_zero_takes_the_plain_iterates(model1):
     import functools
 
     from biplan._jax import jax, jnp, kernel_options
-    from biplan.solvers.newton import compiled_loop, newton_loop
+    from biplan.solvers.newton import newton_loop, solve_loop
 
     plain = jax.jit(functools.partial(newton_loop, model1.layout, free_steps=0),
                     compiler_options=kernel_options(runs_often=True))  # fmt: skip
@@ -500,7 +500,7 @@ def test_traced_watchdog_of_length_zero_takes_the_plain_iterates(model1):
     settings = Newton(max_steps=40, free_steps=0).settings()
     for _ in range(4):
         z0 = jnp.asarray(model1.pack(rng.normal(scale=0.3, size=model1.n_coordinates)))
-        a = compiled_loop(model1.layout)(model1.params, z0, load, settings)[0]
+        a = solve_loop.compiled(model1.layout)(model1.params, z0, load, settings)[0]
         b = plain(model1.params, z0, load, settings)
         for field in ("z", "status", "steps", "evals"):
             np.testing.assert_array_equal(np.asarray(getattr(a, field)),

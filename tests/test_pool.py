@@ -11,7 +11,7 @@ import pytest
 from biplan import _linalg as linalg
 from biplan._jax import jax, jnp, kernel_options
 from biplan.assembly import Load, contact_gaps, kkt_jacobian
-from biplan.solvers.newton import Newton, Status, compiled_loop, newton_loop
+from biplan.solvers.newton import Newton, Status, newton_loop, solve_loop
 from biplan.solvers.observe import kkt_min_eigenvalue, observe
 from biplan.solvers.pool import newton_pool
 
@@ -60,9 +60,9 @@ def test_pool_equals_one_newton_loop_per_task(tasks) -> None:
     zz = np.concatenate([z0, np.zeros((pad, z0.shape[1]))])
     loads = Load(jnp.zeros(n + pad), jnp.asarray(np.r_[uu, np.zeros(pad)]), jnp.ones(n + pad))
     cheap = kernel_options()  # the suite's pipeline (BIPLAN_FAST_COMPILE): same arithmetic
-    out = jax.jit(newton_pool, static_argnums=(0, 7), compiler_options=cheap)(
-        m.layout, params, jnp.zeros(n + pad, dtype=jnp.int32), jnp.asarray(zz), loads,
-        jnp.asarray(n), settings, 4,
+    out = jax.jit(newton_pool.fun, static_argnums=(0, 1), compiler_options=cheap)(
+        m.layout, 4, params, jnp.zeros(n + pad, dtype=jnp.int32), jnp.asarray(zz), loads,
+        jnp.asarray(n), settings,
     )  # fmt: skip
     assert (np.asarray(out.status)[n:] == -1).all()
     one = jax.jit(jax.vmap(lambda z, u: newton_loop(
@@ -75,7 +75,7 @@ def test_pool_equals_one_newton_loop_per_task(tasks) -> None:
     assert conv.sum() >= n // 2
     assert np.allclose(np.asarray(out.z)[:n][conv], np.asarray(ref.z)[conv], rtol=0, atol=1e-12)
     # the default one-pass driver visits the same trial points: same solutions
-    loop = compiled_loop(m.layout)
+    loop = solve_loop.compiled(m.layout)
     for i in np.flatnonzero(conv)[::4]:
         load = Load(jnp.asarray(0.0), jnp.asarray(uu[i]), jnp.asarray(1.0))
         sol = loop(m.params, jnp.asarray(z0[i]), load, settings)[0]
@@ -88,7 +88,7 @@ def test_stability_from_the_kkt_jacobian_equals_the_fresh_hessian(tasks) -> None
     Jacobian evaluated afresh), at converged equilibria of both signs of λ_min."""
     m, z0, uu = tasks
     settings = Newton().settings()
-    loop = compiled_loop(m.layout)
+    loop = solve_loop.compiled(m.layout)
 
     @functools.partial(jax.jit, compiler_options=kernel_options())
     def both(params, z, load):  # the two λ_min of one converged state, compiled once

@@ -36,7 +36,7 @@ from biplan.analysis.sweeps import (
     sweep,
 )
 from biplan.io.sweepstore import ChunkStore, load_map, save_map
-from biplan.solvers.pool import pool_kernel
+from biplan.solvers.pool import newton_pool
 
 BATCH = 4
 B_VALUES = (0.45, 0.51, 0.57)
@@ -503,7 +503,7 @@ def test_stability_map_mono_at_small_displacement_multi_at_large(design) -> None
     # the prescribed displacement holds at every equilibrium (u_z/l0 = U/l0 at the load point)
     assert np.nanmax(np.abs(ds["u_z"].values[:, 1] - 0.1)) < 0.02
     # a chunk of another size in the same bucket (≤ 8 points) reuses the compiled pool
-    kernel = pool_kernel(design.layout, StabilitySearch().solve_batch)
+    kernel = newton_pool.compiled(design.layout, StabilitySearch().solve_batch)
     compiled = kernel._cache_size()
     assert compiled >= 1
     whole = sweep(design, grid, StabilityEvaluator(), chunk_size=3)  # one row per chunk

@@ -29,6 +29,7 @@ any cache of native code.)
 
 from __future__ import annotations
 
+import collections
 import contextlib
 import functools
 import hashlib
@@ -48,7 +49,7 @@ import numpy as np
 from biplan import _jax
 from biplan._jax import jax, jnp
 
-__all__ = ["StoredKernel", "kernel_store", "stored_jit"]
+__all__ = ["Kernel", "StoredKernel", "kernel", "kernel_store", "stored_jit"]
 
 _OFF = {"", "0", "off", "none", "false"}  # as BIPLAN_JAX_CACHE, plus "false"
 #: Bumped when the entry format changes.
@@ -381,3 +382,99 @@ def stored_jit(
     kernel = StoredKernel(fun, name, key, compiler_options)
     _KERNELS.add(kernel)
     return kernel
+
+
+#: Compiled forms a :class:`Kernel` keeps (most recently used static arguments).
+KEPT = 32
+
+
+class Kernel:
+    """A pure kernel function and its compiled forms: the one kernel mechanism of biplan.
+
+    ``kernel(name)`` turns ``fun(*static, *traced)`` — a pure function whose first ``statics``
+    arguments (a tube layout, a lane count, …) fix the traced graph — into a :class:`Kernel`.
+    Calling it calls ``fun`` itself (so other kernels inline it, ``vmap`` it, differentiate
+    it); :meth:`compiled` returns the stored, jitted kernel of the static arguments
+    (:func:`stored_jit`), built once per process and traced once per machine.
+
+    Parameters
+    ----------
+    fun : callable
+        The pure function.
+    name : str
+        Kernel name (file prefix of the stored entries; ``jit(<name>)`` in JAX's logs).
+    statics : int
+        How many leading arguments are static (hashable; their ``repr`` keys the store).
+    in_axes : tuple, optional
+        ``jax.vmap`` axes of the traced arguments: the compiled kernel is the batched one.
+    axis_name : str, optional
+        With ``in_axes``: the name of the batch axis, also passed to ``fun`` as its
+        ``axis_name`` keyword (collectives over the lanes, e.g. skipping work no lane needs).
+    runs_often : bool
+        Compiled with the light pipeline under ``BIPLAN_FAST_COMPILE`` (a kernel called
+        hundreds of times per run; :func:`biplan._jax.kernel_options`).
+    """
+
+    def __init__(
+        self,
+        fun: Callable[..., Any],
+        name: str,
+        statics: int = 1,
+        in_axes: tuple | None = None,
+        axis_name: str | None = None,
+        runs_often: bool = False,
+    ) -> None:
+        self.fun = fun
+        self.name = name
+        self.statics = statics
+        self.in_axes = in_axes
+        self.axis_name = axis_name
+        self.runs_often = runs_often
+        self._compiled: collections.OrderedDict[tuple, StoredKernel] = collections.OrderedDict()
+        self._lock = threading.Lock()
+        functools.update_wrapper(self, fun)
+
+    def __call__(self, *args: Any, **kwargs: Any) -> Any:
+        return self.fun(*args, **kwargs)
+
+    def __repr__(self) -> str:
+        return f"Kernel({self.name}, {len(self._compiled)} compiled)"
+
+    def compiled(self, *static: Any) -> StoredKernel:
+        """The stored, jitted kernel of these static arguments (built once per process; the
+        :data:`KEPT` most recently used are kept, so a process that sees many tube layouts
+        frees the executables of old ones)."""
+        if len(static) != self.statics:
+            raise TypeError(f"kernel {self.name} takes {self.statics} static argument(s)")
+        with self._lock:
+            found = self._compiled.get(static)
+            if found is not None:
+                self._compiled.move_to_end(static)
+            else:
+                named = {} if self.axis_name is None else {"axis_name": self.axis_name}
+                fn = functools.partial(self.fun, *static, **named)
+                if self.in_axes is not None:
+                    fn = jax.vmap(fn, in_axes=self.in_axes, axis_name=self.axis_name)
+                key = static[0] if self.statics == 1 else static
+                found = stored_jit(fn, self.name, key, _jax.kernel_options(self.runs_often))
+                self._compiled[static] = found
+                if len(self._compiled) > KEPT:
+                    self._compiled.popitem(last=False)
+            return found
+
+
+def kernel(
+    name: str,
+    *,
+    statics: int = 1,
+    in_axes: tuple | None = None,
+    axis_name: str | None = None,
+    runs_often: bool = False,
+) -> Callable[[Callable[..., Any]], Kernel]:
+    """Decorator: the pure function as a :class:`Kernel` named ``name`` (its parameters:
+    :class:`Kernel`)."""
+
+    def wrap(fun: Callable[..., Any]) -> Kernel:
+        return Kernel(fun, name, statics, in_axes, axis_name, runs_often)
+
+    return wrap

@@ -23,6 +23,7 @@ parameters, so sweeping R, l, β or law coefficients never recompiles.
 from __future__ import annotations
 
 import functools
+from collections.abc import Callable
 from dataclasses import dataclass
 from typing import Any, NamedTuple
 
@@ -30,8 +31,8 @@ import numpy as np
 
 from biplan import elements
 from biplan._errors import ConfigError, check_finite, check_range
-from biplan._jax import jax, jnp, kernel_options
-from biplan._kernels import stored_jit
+from biplan._jax import jax, jnp
+from biplan._kernels import Kernel
 from biplan.geometry import chain
 from biplan.geometry.tube import Tube, TubeLayout
 from biplan.laws import _kernels as law_kernels
@@ -454,56 +455,46 @@ class Kernels:
     kinematics: Any
 
 
+def _unloaded(layout: TubeLayout, p: ModelParams, q: Array) -> elements.LocalTerms:
+    """Local terms with zero multipliers: energy Hessian and constraint Jacobians."""
+    _, ng, nc = _sizes(layout)
+    return elements.local_terms(layout, p, q, jnp.zeros(ng), jnp.zeros(nc))
+
+
+def _lagrangian_hessian_at(layout: TubeLayout, p: ModelParams, z: Array, load: Load) -> Array:
+    local, chain_part, coef, _ = _terms(layout, p, z, load, second_order=True)
+    return _lagrangian_hessian(p, local, chain_part, coef)
+
+
+#: The model's per-point kernels (:func:`kernels`): functions of (layout, params, …). LLVM's
+#: cheap pipeline only with BIPLAN_FAST_COMPILE=on (the test suite): each of these compiles in
+#: 2–9 s and runs in under a millisecond.
+_POINT_FUNCTIONS: dict[str, Callable[..., Any]] = {
+    "energy": energy,
+    "fold_energies": fold_energies,
+    "gradient": jax.grad(energy, argnums=2),
+    "hessian": lambda L, p, q: _unloaded(L, p, q).hessian,
+    "guides": guide_values,
+    "guide_jacobian": lambda L, p, q: _unloaded(L, p, q).guide_jacobian,
+    "contact_gaps": contact_gaps,
+    "contact_jacobian": lambda L, p, q: _unloaded(L, p, q).gap_jacobian,
+    "residual": residual,
+    "jacobian": kkt_jacobian,
+    "jacobian_autodiff": jax.jacfwd(residual, argnums=2),
+    "state": state_data,
+    "lagrangian_hessian": _lagrangian_hessian_at,
+    "endpoint": lambda L, p, q: chain.endpoint(L, p.geometry, q),
+    "load_height": load_height,
+    "load_gradient": jax.grad(load_height, argnums=2),
+    "kinematics": _kin,
+}
+_POINT_KERNELS = {name: Kernel(fun, name) for name, fun in _POINT_FUNCTIONS.items()}
+
+
 @functools.lru_cache(maxsize=64)
 def kernels(layout: TubeLayout) -> Kernels:
-    """Build (once per layout) the jitted kernels of a tube layout."""
-    L = layout
-
-    def lag_hess(p: ModelParams, z: Array, load: Load) -> Array:
-        local, chain_part, coef, _ = _terms(L, p, z, load, second_order=True)
-        return _lagrangian_hessian(p, local, chain_part, coef)
-
-    def unloaded(p: ModelParams, q: Array) -> elements.LocalTerms:
-        """Local terms with zero multipliers: energy Hessian and constraint Jacobians."""
-        _, ng, nc = _sizes(L)
-        return elements.local_terms(L, p, q, jnp.zeros(ng), jnp.zeros(nc))
-
-    def res(p: ModelParams, z: Array, load: Load) -> Array:
-        return residual(L, p, z, load)
-
-    def lh(p: ModelParams, q: Array) -> Array:
-        return load_height(L, p, q)
-
-    def kin(p: ModelParams, q: Array) -> chain.Kinematics:
-        return _kin(L, p, q)
-
-    def _store(fn: Any, name: str) -> Any:
-        # LLVM's cheap pipeline only with BIPLAN_FAST_COMPILE=on (the test suite): each of
-        # these compiles in 2–9 s and runs in under a millisecond
-        return stored_jit(fn, name, L, kernel_options())
-
-    guides = functools.partial(guide_values, L)
-    gaps = functools.partial(contact_gaps, L)
-
-    return Kernels(
-        energy=_store(functools.partial(energy, L), "energy"),
-        fold_energies=_store(functools.partial(fold_energies, L), "fold_energies"),
-        gradient=_store(jax.grad(functools.partial(energy, L), argnums=1), "gradient"),
-        hessian=_store(lambda p, q: unloaded(p, q).hessian, "hessian"),
-        guides=_store(guides, "guides"),
-        guide_jacobian=_store(lambda p, q: unloaded(p, q).guide_jacobian, "guide_jacobian"),
-        contact_gaps=_store(gaps, "contact_gaps"),
-        contact_jacobian=_store(lambda p, q: unloaded(p, q).gap_jacobian, "contact_jacobian"),
-        residual=_store(res, "residual"),
-        jacobian=_store(functools.partial(kkt_jacobian, L), "jacobian"),
-        jacobian_autodiff=_store(jax.jacfwd(res, argnums=1), "jacobian_autodiff"),
-        state=_store(functools.partial(state_data, L), "state"),
-        lagrangian_hessian=_store(lag_hess, "lagrangian_hessian"),
-        endpoint=_store(lambda p, q: chain.endpoint(L, p.geometry, q), "endpoint"),
-        load_height=_store(lh, "load_height"),
-        load_gradient=_store(jax.grad(lh, argnums=1), "load_gradient"),
-        kinematics=_store(kin, "kinematics"),
-    )
+    """The compiled per-point kernels of a tube layout (each built on first use)."""
+    return Kernels(**{name: k.compiled(layout) for name, k in _POINT_KERNELS.items()})
 
 
 class Model:

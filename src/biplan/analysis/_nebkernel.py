@@ -23,15 +23,14 @@ Convergence: max |F| over the interior images below the tolerance, with the clim
 
 from __future__ import annotations
 
-import functools
 from typing import Any, NamedTuple
 
 from biplan import _linalg as linalg
-from biplan._jax import jax, jnp, kernel_options
-from biplan._kernels import stored_jit
+from biplan._jax import jax, jnp
+from biplan._kernels import kernel
 from biplan.assembly import ModelParams, TubeLayout, contact_gaps, energy, guide_values, sizes
 
-__all__ = ["BandOutput", "band_forces", "compiled_band", "project", "relax_band"]
+__all__ = ["BandOutput", "band_forces", "project", "relax_band"]
 
 Array = Any
 
@@ -164,6 +163,7 @@ class _State(NamedTuple):
     it: Array
 
 
+@kernel("band")
 def relax_band(layout: TubeLayout, p: ModelParams, q0: Array, settings: Array) -> BandOutput:
     """Relax a band q0 (M, n_q) whose end images are stationary states (pure; jit/vmap-able).
 
@@ -240,10 +240,3 @@ def relax_band(layout: TubeLayout, p: ModelParams, q0: Array, settings: Array) -
         iterations=out.it,
         constraint_residual=viol,
     )
-
-
-@functools.lru_cache(maxsize=16)
-def compiled_band(layout: TubeLayout) -> Any:
-    """``jit(relax_band)`` of a layout (one compilation per number of images)."""
-    fn = functools.partial(relax_band, layout)
-    return stored_jit(fn, "band", layout, kernel_options())

@@ -28,10 +28,10 @@ import numpy as np
 
 from biplan._errors import ConfigError, check_integer, check_range
 from biplan._jax import jnp
-from biplan.analysis._nebkernel import compiled_band
+from biplan.analysis._nebkernel import relax_band
 from biplan.analysis.stability import classify
 from biplan.assembly import Load, Model
-from biplan.solvers.newton import Newton, Status, compiled_loop, make_solution
+from biplan.solvers.newton import Newton, Status, make_solution, solve_loop
 
 __all__ = [
     "MepStatus",
@@ -219,7 +219,7 @@ def _contact_start(model: Model, q: np.ndarray, lam_c: np.ndarray) -> np.ndarray
 
 
 def _refine(model: Model, neb: NudgedElasticBand, z0: np.ndarray) -> tuple[np.ndarray, int, float]:
-    out, _ = compiled_loop(model.layout)(
+    out, _ = solve_loop.compiled(model.layout)(
         model.params, jnp.asarray(z0), _zero_load(), neb.refine.settings()
     )
     return np.asarray(out.z), int(out.status), float(np.max(np.abs(np.asarray(out.r))))
@@ -268,7 +268,7 @@ def _attempt(
     nq = model.n_coordinates
     t = np.linspace(0.0, 1.0, neb.n_images)[:, None]
     band0 = (1.0 - t) * za[None, :nq] + t * zb[None, :nq]
-    out = compiled_band(model.layout)(model.params, jnp.asarray(band0), jnp.asarray(settings))
+    out = relax_band.compiled(model.layout)(model.params, jnp.asarray(band0), jnp.asarray(settings))
     q = np.asarray(out.q)
     energies = np.asarray(out.energy)
     arc = np.concatenate([[0.0], np.cumsum(np.linalg.norm(np.diff(q, axis=0), axis=1))])

@@ -6,10 +6,11 @@ contact by the smoothed Fischer–Burmeister function) is multiplied by the defl
     M(q) = Π_i ( 1 / ‖q − q_i‖^p + σ )
 
 so that the known states are no longer roots of M r while every other root of r is. Newton on
-M r needs no new Jacobian: with d = −J⁻¹ r the undeflated Newton step and η = log M, the
-deflated step is d / (1 − ∇η · d_q) (Sherman–Morrison). Each run starts from a random
-perturbation of a known state (or from the midpoint of two), is damped by backtracking on
-‖M r‖, and stops when the *undeflated* residual is below the tolerance. A new root joins the
+M r is the Newton core (:mod:`biplan.solvers.core`) on the deflated residual: with
+d = −J⁻¹ r the undeflated Newton step and η = log M, its step is d / (1 − ∇η · d_q)
+(Sherman–Morrison). Each run starts from a random perturbation of a known state (or from the
+midpoint of two), is damped by backtracking on ½‖M r‖² (Levenberg–Marquardt where that
+fails), and stops when the *undeflated* residual is below the tolerance. A new root joins the
 deflation set at once, so no root is found twice. Every root is then classified by its reduced
 Hessian (MODEL §12) and described by the phase fractions of its folds — a fold that is neither
 fully closed nor fully open is *partially transformed*.
@@ -18,17 +19,24 @@ fully closed nor fully open is *partially transformed*.
 from __future__ import annotations
 
 import numbers
+from collections.abc import Callable
 from dataclasses import dataclass, field
+from typing import Any
 
 import numpy as np
 
 from biplan._errors import ConfigError, check_integer, check_range
+from biplan._jax import jax, jnp
+from biplan._kernels import kernel
 from biplan.analysis.stability import classify
-from biplan.assembly import Load, Model
-from biplan.solvers.newton import Status, make_solution
+from biplan.assembly import Load, Model, TubeLayout, kernels
+from biplan.solvers.core import Settings, Status, iterate
+from biplan.solvers.newton import make_solution
 from biplan.solvers.observe import observe_batch
 
-__all__ = ["Deflation", "DeflationResult", "Equilibrium", "deflate"]
+__all__ = ["Deflation", "DeflationResult", "Equilibrium", "deflate", "deflated_loop"]
+
+Array = Any
 
 #: Phase fraction above which a fold counts as fully on one branch.
 WHOLE_FOLD = 0.999
@@ -162,59 +170,100 @@ class DeflationResult:
         return tuple(e for e in self.equilibria if e.stable)
 
 
-def _log_operator_gradient(q: np.ndarray, roots: list[np.ndarray], p: float, s: float) -> tuple:
-    """(log M(q), ∇ log M(q)) of the deflation operator."""
-    log_m, grad = 0.0, np.zeros_like(q)
-    for qi in roots:
-        d = q - qi
-        r2 = max(float(d @ d), 1e-300)
-        inv = r2 ** (-0.5 * p)
-        log_m += np.log(inv + s)
-        grad += -p * inv / r2 * d / (inv + s)
-    return log_m, grad
+#: Coordinates beyond this [mm or rad] end a deflated run (an iterate pushed off to infinity).
+ESCAPE = 1e3
+#: Step halvings of the deflated line search.
+BACKTRACKS = 8
+#: Known states are padded to multiples of this (a kernel per bucket, not per count).
+ROOT_BUCKET = 64
+
+
+def deflated_system(
+    layout: TubeLayout, p: Any, roots: Array, mask: Array, power: Array, shift: Array
+) -> tuple[Callable[[Array], Array], Callable[[Array], Array], Callable[[Array], Array]]:
+    """(residual, jacobian, η) of the deflated system M(q) r(z) = 0 at zero end load.
+
+    ``roots`` (R, n_q) are the known states where ``mask`` is True (the others padding);
+    η(q) = log M(q). The Jacobian is M J + r ∇Mᵀ (∇M = M ∇η by autodiff of the small
+    operator), whose Newton step is the Sherman–Morrison step d / (1 − ∇η · d_q) of the module
+    docstring. A point with a coordinate beyond :data:`ESCAPE` has a NaN residual (a trial
+    point there is rejected).
+    """
+    k = kernels(layout)
+    zero = jnp.asarray(0.0)
+    load = Load(zero, zero, zero)
+    nq = layout.n_coordinates
+
+    def log_m(q: Array) -> Array:
+        d = q[None, :] - roots
+        r2 = jnp.maximum(jnp.sum(d * d, axis=1), 1e-300)
+        return jnp.sum(jnp.where(mask, jnp.log(r2 ** (-0.5 * power) + shift), 0.0))
+
+    def deflated(z: Array) -> Array:
+        out = jnp.exp(log_m(z[:nq])) * k.residual(p, z, load)
+        return jnp.where(jnp.max(jnp.abs(z[:nq])) > ESCAPE, jnp.nan, out)
+
+    def jacobian(z: Array) -> Array:
+        eta, grad = jax.value_and_grad(log_m)(z[:nq])
+        m = jnp.exp(eta)
+        r = k.residual(p, z, load)
+        g = jnp.zeros(z.shape[0]).at[:nq].set(grad)
+        return m * k.jacobian(p, z, load) + m * r[:, None] * g[None, :]
+
+    return deflated, jacobian, log_m
+
+
+@kernel("deflated_newton")
+def deflated_loop(
+    layout: TubeLayout,
+    p: Any,
+    z0: Array,
+    roots: Array,
+    mask: Array,
+    power: Array,
+    shift: Array,
+    settings: Settings,
+) -> tuple[Array, Array, Array]:
+    """Newton (:func:`biplan.solvers.core.iterate`) on the deflated system
+    (:func:`deflated_system`) from z0 (pure; jit-able). Converged when the *undeflated*
+    residual ‖M⁻¹ R‖∞ is below ``settings.atol``. Returns (z, status, ‖r‖∞ undeflated)."""
+    deflated, jacobian, log_m = deflated_system(layout, p, roots, mask, power, shift)
+    nq = layout.n_coordinates
+
+    def undeflated_converged(z: Array, r_deflated: Array) -> Array:
+        return jnp.max(jnp.abs(r_deflated)) < settings.atol * jnp.exp(log_m(z[:nq]))
+
+    out = iterate(deflated, jacobian, z0, settings, converged=undeflated_converged)
+    zero = jnp.asarray(0.0)
+    r = kernels(layout).residual(p, out.z, Load(zero, zero, zero))
+    return out.z, out.status, jnp.max(jnp.abs(r))
+
+
+def _padded(roots: list[np.ndarray]) -> tuple[np.ndarray, np.ndarray]:
+    """The roots padded to the next multiple of :data:`ROOT_BUCKET` rows, and their mask."""
+    size = ROOT_BUCKET * (len(roots) // ROOT_BUCKET + 1)
+    out = np.zeros((size, roots[0].shape[0]))
+    out[: len(roots)] = roots
+    return out, np.arange(size) < len(roots)
 
 
 def _deflated_newton(
-    model: Model, z0: np.ndarray, roots: list[np.ndarray], cfg: Deflation, load: Load
+    model: Model, z0: np.ndarray, roots: list[np.ndarray], cfg: Deflation
 ) -> tuple[np.ndarray, float, bool]:
-    nq = model.n_coordinates
-    k, params = model.kernels, model.params
-    jload = load.for_kernel()
-
-    def residual(x: np.ndarray) -> np.ndarray:
-        return np.asarray(k.residual(params, x, jload))
-
-    z = z0.copy()
-    r = residual(z)
-    log_m, _ = _log_operator_gradient(z[:nq], roots, cfg.power, cfg.shift)
-    merit = np.exp(log_m) * np.linalg.norm(r)
-    for _ in range(cfg.max_steps):
-        if np.max(np.abs(r)) < cfg.tolerance:
-            return z, float(np.max(np.abs(r))), True
-        jac = np.asarray(k.jacobian(params, z, jload))
-        try:
-            d = np.linalg.solve(jac, -r)
-        except np.linalg.LinAlgError:
-            d = np.linalg.lstsq(jac, -r, rcond=None)[0]
-        _, g = _log_operator_gradient(z[:nq], roots, cfg.power, cfg.shift)
-        denom = 1.0 - float(g @ d[:nq])
-        step = d / denom if abs(denom) > 1e-12 else d
-        if not np.all(np.isfinite(step)):
-            break
-        alpha, accepted = 1.0, False
-        for _ in range(8):
-            zt = z + alpha * step
-            rt = residual(zt)
-            lt, _ = _log_operator_gradient(zt[:nq], roots, cfg.power, cfg.shift)
-            mt = np.exp(lt) * np.linalg.norm(rt)
-            if np.isfinite(mt) and mt < merit:
-                z, r, merit, accepted = zt, rt, mt, True
-                break
-            alpha *= 0.5
-        if not accepted or np.max(np.abs(z[:nq])) > 1e3:
-            break
-    res = float(np.max(np.abs(r)))
-    return z, res, res < cfg.tolerance
+    padded, mask = _padded(roots)
+    solve = deflated_loop.compiled(model.layout)
+    settings = Settings.of(cfg.tolerance, cfg.max_steps, BACKTRACKS)
+    z, status, res = solve(
+        model.params,
+        jnp.asarray(z0),
+        jnp.asarray(padded),
+        jnp.asarray(mask),
+        jnp.asarray(float(cfg.power)),
+        jnp.asarray(float(cfg.shift)),
+        settings,
+    )
+    res = float(res)
+    return np.asarray(z), res, int(status) == Status.CONVERGED.value and res < cfg.tolerance
 
 
 def _starts(model: Model, known: np.ndarray, cfg: Deflation) -> list[tuple[np.ndarray, str]]:
@@ -261,7 +310,6 @@ def deflate(
     if known.shape[1] not in (nq, model.n_unknowns) or not np.all(np.isfinite(known)):
         raise ConfigError("known_z", known.shape, f"(m, {nq}) or (m, {model.n_unknowns})")
     known = known[:, :nq]
-    load = Load.of_force(0.0)
     roots = [q.copy() for q in known]
     found: list[tuple[np.ndarray, float, str]] = []
     starts = _starts(model, known, cfg)
@@ -269,7 +317,7 @@ def deflate(
     n_mod = model.layout.n_modules
     rotations = np.concatenate([3 * np.arange(n_mod) + 1, 3 * np.arange(n_mod) + 2])
     for q0, label in starts:
-        z, res, ok = _deflated_newton(model, model.pack(q0), roots, cfg, load)
+        z, res, ok = _deflated_newton(model, model.pack(q0), roots, cfg)
         if not ok:
             continue
         n_conv += 1

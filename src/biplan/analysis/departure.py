@@ -27,7 +27,7 @@ from biplan._errors import ConfigError, check_integer, check_range
 from biplan._jax import jnp
 from biplan.analysis.quasistatic import SUB_TOLERANCE, inexact_newton
 from biplan.assembly import Load, Model
-from biplan.solvers.newton import Newton, Status, compiled_loop
+from biplan.solvers.newton import Newton, Status, solve_loop
 from biplan.solvers.observe import Observation, observe_batch
 
 __all__ = ["Departure", "DepartureStatus", "Ramp", "departure_force"]
@@ -129,7 +129,7 @@ class _Stepper:
 
     def __init__(self, model: Model, ramp: Ramp) -> None:
         self.model, self.ramp = model, ramp
-        self.loop = compiled_loop(model.layout)
+        self.loop = solve_loop.compiled(model.layout)
         self.settings = ramp.newton.settings()
         # the proximal sub-problems of relax() are solved inexactly (as in quasistatic.relax)
         self.sub_settings = inexact_newton(ramp.newton).settings()

@@ -24,17 +24,15 @@ batched kernel; the test-suite checks that both agree.
 
 from __future__ import annotations
 
-import functools
 from collections.abc import Iterator, Mapping, Sequence
 from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
 
-from biplan import _linalg as linalg
 from biplan._errors import ConfigError, check_integer, check_range
-from biplan._jax import jax, jnp, kernel_options
-from biplan._kernels import stored_jit
+from biplan._jax import jax, jnp
+from biplan._kernels import kernel
 from biplan.analysis.ramp_dynamics import continue_ramp
 from biplan.assembly import (
     Load,
@@ -47,6 +45,7 @@ from biplan.assembly import (
     residual,
 )
 from biplan.geometry import Tube, chain
+from biplan.solvers.core import Settings, chord
 from biplan.solvers.newton import Newton, Status, newton_loop, solve_equilibrium
 from biplan.solvers.observe import kkt_min_eigenvalue, observe_batch
 
@@ -167,39 +166,25 @@ LANES = "designs"
 CHORD_ITERATIONS = 8
 
 
+@kernel("chord")
 def _chord(layout: TubeLayout, p: Any, z: Array, jac: Array, load: Load, atol: Array) -> Array:
-    """Chord (modified Newton) iterates z ← z − J⁻¹ r(z) with the fixed Jacobian ``jac``
-    (factored once), until ‖r‖∞ < atol or :data:`CHORD_ITERATIONS` steps; returns the iterate
-    of smallest ‖r‖∞ (z itself when every step made it worse or non-finite). An iterate
-    below ``atol`` is accepted by the Newton loop's first pass, which then only evaluates the
-    Jacobian there (for the stability test and the next step's chord)."""
-    lu, piv = linalg.lu_factor(jac)
-
-    def residual_and_norm(zc: Array) -> tuple[Array, Array]:
-        r = residual(layout, p, zc, load)
-        return r, jnp.where(jnp.all(jnp.isfinite(r)), jnp.max(jnp.abs(r)), jnp.inf)
-
-    def cond(c: tuple) -> Array:
-        k, _, _, _, best_norm, last_norm = c
-        return (k < CHORD_ITERATIONS) & (best_norm >= atol) & jnp.isfinite(last_norm)
-
-    def step(c: tuple) -> tuple:
-        k, zc, r, best, best_norm, _ = c
-        dz = linalg.lu_solve(lu, piv, -r)
-        zn = jnp.where(jnp.all(jnp.isfinite(dz)), zc + dz, zc)
-        rn, nn = residual_and_norm(zn)
-        take = nn < best_norm
-        return k + 1, zn, rn, jnp.where(take, zn, best), jnp.where(take, nn, best_norm), nn
-
-    r0, n0 = residual_and_norm(z)
-    init = (jnp.asarray(0), z, r0, z, n0, n0)
-    return jax.lax.while_loop(cond, step, init)[3]
+    """The start of a load step: :func:`biplan.solvers.core.chord` at ``load`` with the
+    previous equilibrium's KKT Jacobian ``jac`` (at most :data:`CHORD_ITERATIONS` steps)."""
+    return chord(lambda zc: residual(layout, p, zc, load), jac, z, atol, CHORD_ITERATIONS)
 
 
+@kernel("design_lanes", statics=2, in_axes=(0, None, None, None), axis_name=LANES)
 def _path(
-    layout: TubeLayout, free_steps: int, p: Any, z0: Array, forces: Array, settings: Array
+    layout: TubeLayout,
+    free_steps: int,
+    p: Any,
+    z0: Array,
+    forces: Array,
+    settings: Settings,
+    axis_name: str | None = None,
 ) -> tuple:
-    """Load stepping through ``forces`` from z0 (pure; vmapped over designs).
+    """Load stepping through ``forces`` from z0 (pure; vmapped over designs, the vmap axis
+    named ``axis_name``).
 
     Each step starts with up to :data:`CHORD_ITERATIONS` chord iterations at the new load with
     the KKT Jacobian of the previous equilibrium (cheap: residuals and solves only) and is
@@ -214,8 +199,10 @@ def _path(
     def body(carry: tuple, f: Array) -> tuple:
         z, jac, alive = carry
         load = Load(f, zero, zero)
-        start = _chord(layout, p, z, jac, load, settings[0])
-        out = newton_loop(layout, p, start, load, settings, free_steps=free_steps, axis_name=LANES)
+        start = _chord(layout, p, z, jac, load, settings.atol)
+        out = newton_loop(
+            layout, p, start, load, settings, free_steps=free_steps, axis_name=axis_name
+        )
         ok = alive & (out.status == Status.CONVERGED.value) & jnp.all(jnp.isfinite(out.z))
         q = out.z[:nq]
         end = chain.endpoint(layout, p.geometry, q)
@@ -229,13 +216,6 @@ def _path(
     jac0 = kkt_jacobian(layout, p, z0, Load(forces[0], zero, zero))
     carry, outs = jax.lax.scan(body, (z0, jac0, jnp.asarray(True)), forces)  # type: ignore[var-annotated]
     return carry[0], outs
-
-
-@functools.lru_cache(maxsize=16)
-def _kernel(layout: TubeLayout, free_steps: int) -> Any:
-    fn = functools.partial(_path, layout, free_steps)
-    batched = jax.vmap(fn, in_axes=(0, None, None, None), axis_name=LANES)
-    return stored_jit(batched, "design_lanes", (layout, free_steps), kernel_options())
 
 
 def stack_params(models: Sequence[Model], batch: int) -> Any:
@@ -418,15 +398,9 @@ def ramp_batches(
         for lo in range(0, len(which), batch):
             part = which[lo : lo + batch]
             params = stack_params(models[lo : lo + batch], batch)
-            z_last, rec = _kernel(layout, ramp.free_steps)(params, z0, forces, settings)
+            z_last, rec = _path.compiled(layout, ramp.free_steps)(params, z0, forces, settings)
             records = tuple(np.asarray(r)[: len(part)] for r in rec)
             yield part, models[lo : lo + batch], records, np.asarray(z_last)[: len(part)]
-
-
-@functools.lru_cache(maxsize=16)
-def _chord_kernel(layout: TubeLayout) -> Any:
-    """:func:`_chord` of one design, jitted (the start of each step of ``response_point``)."""
-    return stored_jit(functools.partial(_chord, layout), "chord", layout, kernel_options())
 
 
 def response_point(tube: Tube, ramp: ForceRamp | None = None) -> dict[str, float]:
@@ -444,7 +418,7 @@ def response_point(tube: Tube, ramp: ForceRamp | None = None) -> dict[str, float
     model = Model(tube)
     solver = ramp.newton()
     kk = kernels(model.layout)
-    chord = _chord_kernel(model.layout)
+    chord = _chord.compiled(model.layout)
     params = model.params
     z = np.asarray(model.pack(model.zeros()))
     jac = np.asarray(kk.jacobian(params, z, Load.of_force(float(ramp.forces[0]))))

@@ -41,8 +41,8 @@ from typing import Any
 import numpy as np
 
 from biplan._errors import ConfigError
-from biplan._jax import jax, jnp, kernel_options
-from biplan._kernels import stored_jit
+from biplan._jax import jax, jnp
+from biplan._kernels import kernel
 from biplan.analysis._parameters import (
     AngleParameter,
     Maps,
@@ -221,8 +221,15 @@ def _observables(layout: TubeLayout, p: Any, z: Array, load: Any) -> Array:
     )
 
 
-@functools.lru_cache(maxsize=32)
-def _kernel(layout: TubeLayout, angle: AngleParameter, displacement_control: bool) -> Any:
+@kernel("sensitivity", statics=3)
+def _first_order(
+    layout: TubeLayout,
+    angle: AngleParameter,
+    displacement_control: bool,
+    maps: Maps,
+    v: Array,
+    z: Array,
+) -> tuple:
     """(y, ∂y/∂z, ∂y/∂v, J, ∂r/∂v) at (v, z) of the first-order observables, compiled once per
     layout and parameter map (forward mode: cheaper to compile than reverse here)."""
 
@@ -234,18 +241,23 @@ def _kernel(layout: TubeLayout, angle: AngleParameter, displacement_control: boo
         p, load = apply(maps, angle, displacement_control, v)
         return residual(layout, p, z, load)
 
-    def evaluate(maps: Maps, v: Array, z: Array) -> tuple:
-        p, load = apply(maps, angle, displacement_control, v)
-        y_v, y_z = jax.jacfwd(observe, argnums=(0, 1))(v, z, maps)
-        r_v = jax.jacfwd(res)(v, z, maps)
-        return observe(v, z, maps), y_z, y_v, kkt_jacobian(layout, p, z, load), r_v
-
-    key = (layout, angle.value, displacement_control)
-    return stored_jit(evaluate, "sensitivity", key, kernel_options())
+    p, load = apply(maps, angle, displacement_control, v)
+    y_v, y_z = jax.jacfwd(observe, argnums=(0, 1))(v, z, maps)
+    r_v = jax.jacfwd(res)(v, z, maps)
+    return observe(v, z, maps), y_z, y_v, kkt_jacobian(layout, p, z, load), r_v
 
 
-@functools.lru_cache(maxsize=32)
-def _eigen_kernel(layout: TubeLayout, angle: AngleParameter, displacement_control: bool) -> Any:
+@kernel("min_eigenvalue_sensitivity", statics=3)
+def _eigen(
+    layout: TubeLayout,
+    angle: AngleParameter,
+    displacement_control: bool,
+    maps: Maps,
+    v: Array,
+    z: Array,
+    x: Array,
+    eta: Array,
+) -> tuple:
     """(y, ∂y/∂z, ∂y/∂v) of y = xᵀ K x − 2 ηᵀ A x (the λ_min row; module docstring), compiled
     only when λ_min is asked for (third derivatives of the energy: the costliest kernel)."""
 
@@ -253,12 +265,8 @@ def _eigen_kernel(layout: TubeLayout, angle: AngleParameter, displacement_contro
         p, load = apply(maps, angle, displacement_control, v)
         return curvature(layout, p, z, load, x, eta)
 
-    def evaluate(maps: Maps, v: Array, z: Array, x: Array, eta: Array) -> tuple:
-        y_v, y_z = jax.jacfwd(observe, argnums=(0, 1))(v, z, maps, x, eta)
-        return observe(v, z, maps, x, eta), y_z, y_v
-
-    key = (layout, angle.value, displacement_control)
-    return stored_jit(evaluate, "min_eigenvalue_sensitivity", key, kernel_options())
+    y_v, y_z = jax.jacfwd(observe, argnums=(0, 1))(v, z, maps, x, eta)
+    return observe(v, z, maps, x, eta), y_z, y_v
 
 
 def eigen_weights(
@@ -318,10 +326,10 @@ def total_derivatives(
     key = (model.layout, parameters.angle, parameters.displacement_control)
     f64 = functools.partial(jnp.asarray, dtype=jnp.float64)
     v, z = f64(parameters.values), f64(state.z)
-    out = _kernel(*key)(parameters.maps, v, z)
+    out = _first_order.compiled(*key)(parameters.maps, v, z)
     y, y_z, y_v, jac, r_v = (np.asarray(a) for a in out)
     if Observable.MIN_EIGENVALUE in rows:
-        e, e_z, e_v = _eigen_kernel(*key)(parameters.maps, v, z, f64(x), f64(eta))
+        e, e_z, e_v = _eigen.compiled(*key)(parameters.maps, v, z, f64(x), f64(eta))
         y = np.append(y, float(e))
         y_z, y_v = np.vstack([y_z, np.asarray(e_z)]), np.vstack([y_v, np.asarray(e_v)])
     pick = [_ROWS.index(o) for o in rows]

@@ -47,7 +47,6 @@ should not straddle chunks (the CLI sizes the chunks to whole rows, at least 128
 
 from __future__ import annotations
 
-import functools
 import itertools
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
@@ -56,14 +55,14 @@ from typing import Any
 import numpy as np
 
 from biplan._errors import ConfigError, check_integer, check_range
-from biplan._jax import jax, jnp, kernel_options
-from biplan._kernels import stored_jit
+from biplan._jax import jax, jnp
+from biplan._kernels import kernel
 from biplan.analysis.design_map import stack_params
 from biplan.assembly import Load, Model, TubeLayout
 from biplan.geometry import Tube
 from biplan.solvers.newton import Newton, Status
 from biplan.solvers.observe import ACTIVE_GAP, STABILITY_TOL, observe
-from biplan.solvers.pool import pool_kernel
+from biplan.solvers.pool import newton_pool
 
 __all__ = [
     "StabilityEvaluator",
@@ -184,6 +183,7 @@ class StabilitySearch:
         return Newton(atol=self.atol, max_steps=steps, max_backtracks=self.max_backtracks)
 
 
+@kernel("stability_observe", in_axes=(0, 0, 0))
 def _observe(layout: TubeLayout, p: Any, z: Array, u: Array) -> tuple:
     load = Load(jnp.asarray(0.0), u, jnp.asarray(1.0))
     ob = observe(layout, p, z, load, layout.options.weak_contacts_active)
@@ -193,12 +193,6 @@ def _observe(layout: TubeLayout, p: Any, z: Array, u: Array) -> tuple:
 #: Lanes of the observation kernel: fixed, so that the march (``march_lanes``) and the seed
 #: pool (``solve_batch``) share one compiled observation.
 OBSERVE_LANES = 8
-
-
-@functools.lru_cache(maxsize=16)
-def _observe_kernel(layout: TubeLayout) -> Any:
-    fn = jax.vmap(functools.partial(_observe, layout))
-    return stored_jit(fn, "stability_observe", layout, kernel_options())
 
 
 def points_per_kernel(n_points: int) -> int:
@@ -391,7 +385,7 @@ class StabilityEvaluator:
         zz = np.concatenate([z0, np.repeat(z0[-1:], pad, axis=0)])
         uu = np.r_[u, np.zeros(pad)]
         loads = Load(jnp.zeros(cap), jnp.asarray(uu), jnp.ones(cap))
-        res = pool_kernel(layout, lanes)(
+        res = newton_pool.compiled(layout, lanes)(
             params, jnp.asarray(point), jnp.asarray(zz), loads, jnp.asarray(n),
             newton.settings(),
         )  # fmt: skip
@@ -408,7 +402,7 @@ class StabilityEvaluator:
                 if near.any():
                     rep[i] = rep[sel[:a][near][0]]
         idx = np.flatnonzero(ok & (rep == np.arange(n)))
-        fn = _observe_kernel(layout)
+        fn = _observe.compiled(layout)
         for lo in range(0, idx.size, OBSERVE_LANES):
             part = idx[lo : lo + OBSERVE_LANES]
             full = np.r_[part, np.full(OBSERVE_LANES - part.size, part[-1])]

@@ -30,7 +30,7 @@ from biplan.analysis.labels import bistable_folds, bits_to_label, label_to_bits
 from biplan.analysis.stability import Verdict, classify
 from biplan.assembly import Load, Model, phase_fractions
 from biplan.geometry import FoldRef
-from biplan.solvers._relaxkernel import compiled_relax
+from biplan.solvers._relaxkernel import relax_seed
 from biplan.solvers.newton import Newton, Solution, Status, solve_equilibrium
 from biplan.solvers.observe import STABILITY_TOL, observe_batch
 
@@ -173,7 +173,7 @@ def relax_seeds(
     padded), so every chunk reuses one compilation; ``progress(done, total)`` is called after
     each chunk.
     """
-    fn = compiled_relax(model.layout)
+    fn = relax_seed.compiled(model.layout)
     stiffness = jnp.asarray(float(settings.penalty_stiffness))
     iterations = jnp.asarray(settings.max_iterations)
     newton = settings.newton.settings()

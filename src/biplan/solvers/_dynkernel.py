@@ -20,8 +20,8 @@ from __future__ import annotations
 import functools
 from typing import Any, NamedTuple
 
-from biplan._jax import jax, jnp, kernel_options
-from biplan._kernels import stored_jit
+from biplan._jax import jax, jnp
+from biplan._kernels import kernel
 from biplan.assembly import (
     Load,
     ModelParams,
@@ -33,7 +33,7 @@ from biplan.assembly import (
     sizes,
 )
 from biplan.inertia import inertia_force, quadrature_points, quadrature_weights
-from biplan.solvers._damped import damped_newton
+from biplan.solvers.core import Status, damped
 
 Array = Any
 
@@ -69,6 +69,7 @@ def coefficients(rho_inf: Array) -> tuple[Array, Array, Array, Array]:
     return am, af, gamma, beta
 
 
+@kernel("kinetic_energy")
 def kinetic_energy(layout: TubeLayout, p: ModelParams, q: Array, v: Array, mu_s: Array) -> Array:
     """T = ½ Σ_k w_k |J_k q̇|² [N·mm]."""
     _, jv = jax.jvp(lambda qq: quadrature_points(layout, p, qq), (q,), (v,))
@@ -121,11 +122,11 @@ def step(
 
     # predictor: constant acceleration extrapolation of q (multipliers as before)
     z0 = s.z.at[:nq].set(q_n + h * v_n + 0.5 * h**2 * qdd_n)
-    out = damped_newton(res, jac, z0, atol, max_it)
-    q = out.x[:nq]
+    out = damped(res, jac, z0, atol, max_it)
+    q = out.z[:nq]
     a_new, v_new, qdd = kin(q)
     kinetic = kinetic_energy(layout, p, q, v_new, mu_s)
-    force = jnp.where(ctl[2] > 0.5, -out.x[-1], load.force)
+    force = jnp.where(ctl[2] > 0.5, -out.z[-1], load.force)
     height = load_height(layout, p, q)
     work = 0.5 * (force + s.force) * (height - s.height)
     kin_n = kinetic_energy(layout, p, q_n, v_n, mu_s)
@@ -140,11 +141,12 @@ def step(
     # energy moved through the step: the check is relative to it (discretisation error of a
     # violent snap) with ``energy_tol`` as the absolute floor (quasi-static tunnelling)
     moved = jnp.abs(work) + jnp.abs(dissipated) + jnp.abs(kinetic - kin_n)
-    new = DynState(out.x, v_new, a_new, qdd, force, height)
-    ok = out.converged & (created <= e_tol + 0.1 * moved)
-    return StepOut(new, ok, out.iterations, kinetic, dissipated)
+    new = DynState(out.z, v_new, a_new, qdd, force, height)
+    ok = (out.status == Status.CONVERGED.value) & (created <= e_tol + 0.1 * moved)
+    return StepOut(new, ok, out.steps, kinetic, dissipated)
 
 
+@kernel("dynamics_chunk")
 def chunk(
     layout: TubeLayout,
     p: ModelParams,
@@ -182,16 +184,3 @@ def chunk(
 
     scanned: tuple = jax.lax.scan(body, (s0, t0, jnp.asarray(True)), t_next)[1]
     return scanned  # type: ignore[return-value]
-
-
-@functools.lru_cache(maxsize=32)
-def compiled_chunk(layout: TubeLayout) -> Any:
-    """The jitted :func:`chunk` of a layout."""
-    return stored_jit(functools.partial(chunk, layout), "dynamics_chunk", layout, kernel_options())
-
-
-@functools.lru_cache(maxsize=32)
-def compiled_kinetic(layout: TubeLayout) -> Any:
-    """The jitted kinetic energy of a layout."""
-    fn = functools.partial(kinetic_energy, layout)
-    return stored_jit(fn, "kinetic_energy", layout, kernel_options())

@@ -18,14 +18,13 @@ one compiled call per tube layout and buffer size.
 
 from __future__ import annotations
 
-import functools
 from typing import Any, NamedTuple
 
 from biplan import _linalg as linalg
-from biplan._jax import jax, jnp, kernel_options
-from biplan._kernels import stored_jit
+from biplan._jax import jax, jnp
+from biplan._kernels import kernel
 from biplan.assembly import Load, ModelParams, TubeLayout, kkt_jacobian, residual, sizes
-from biplan.solvers._damped import damped_newton
+from biplan.solvers.core import Status, damped, residual_norm
 
 Array = Any
 
@@ -71,6 +70,7 @@ class CorrectorOut(NamedTuple):
     r_lam: Array
 
 
+@kernel("corrector", in_axes=(None, 0, 0, None, 0, 0, 0, None, None), axis_name="lanes")
 def corrector(
     layout: TubeLayout,
     p: ModelParams,
@@ -84,11 +84,8 @@ def corrector(
     max_iterations: Array,
     axis_name: str | None = None,
 ) -> CorrectorOut:
-    """Damped Newton on the bordered system from (z0, Λ0); pure, jit/vmap-able.
-
-    ``axis_name``: the enclosing ``vmap`` axis, if any (see
-    :func:`~biplan.solvers._damped.damped_newton`).
-    """
+    """Damped Newton (:func:`biplan.solvers.core.damped`) on the bordered system from
+    (z0, Λ0); pure, jit/vmap-able. ``axis_name``: the enclosing ``vmap`` axis, if any."""
     n = z0.shape[0]
 
     def aug(x: Array) -> Array:
@@ -102,15 +99,15 @@ def corrector(
         return jnp.concatenate([top, jnp.concatenate([row_z, row_l[None]])[None, :]], axis=0)
 
     x0 = jnp.concatenate([z0, lam0[None]])
-    out = damped_newton(aug, jac, x0, atol, max_iterations, axis_name=axis_name)
+    out = damped(aug, jac, x0, atol, max_iterations, axis_name=axis_name)
     return CorrectorOut(
-        out.x[:n],
-        out.x[n],
-        out.converged,
-        out.iterations,
-        out.residual,
-        out.jacobian[:n, :n],
-        out.jacobian[:n, n],
+        out.z[:n],
+        out.z[n],
+        out.status == Status.CONVERGED.value,
+        out.steps,
+        residual_norm(out),
+        out.jac[:n, :n],
+        out.jac[:n, n],
     )
 
 
@@ -136,6 +133,7 @@ class PathBuffers(NamedTuple):
     status: Array
 
 
+@kernel("path", statics=2)
 def path_loop(
     layout: TubeLayout,
     buffer_size: int,
@@ -276,19 +274,3 @@ def path_loop(
 
     out = jax.lax.while_loop(cond, body, (buf, z0, lam0, t0, ds0, jnp.asarray(0)))
     return out[0]
-
-
-@functools.lru_cache(maxsize=32)
-def compiled_path(layout: TubeLayout, buffer_size: int) -> Any:
-    """The jitted :func:`path_loop` of a layout and buffer size."""
-    fn = functools.partial(path_loop, layout, buffer_size)
-    return stored_jit(fn, "path", (layout, buffer_size), kernel_options())
-
-
-@functools.lru_cache(maxsize=32)
-def compiled_corrector(layout: TubeLayout) -> Any:
-    """The jitted corrector, vmapped over (z0, Λ0, row_z, row_l, ρ)."""
-    fn = functools.partial(corrector, layout, axis_name="lanes")
-    in_axes = (None, 0, 0, None, 0, 0, 0, None, None)
-    batched = jax.vmap(fn, in_axes=in_axes, axis_name="lanes")
-    return stored_jit(batched, "corrector", layout, kernel_options())

@@ -30,8 +30,8 @@ import functools
 from typing import Any, NamedTuple
 
 from biplan import _linalg as linalg
-from biplan._jax import jax, jnp, kernel_options
-from biplan._kernels import stored_jit
+from biplan._jax import jax, jnp
+from biplan._kernels import kernel
 from biplan.assembly import (
     Load,
     ModelParams,
@@ -44,7 +44,7 @@ from biplan.assembly import (
 )
 from biplan.solvers.newton import newton_loop
 
-__all__ = ["RelaxOutput", "compiled_relax", "relax_seed"]
+__all__ = ["RelaxOutput", "relax_seed"]
 
 Array = Any
 
@@ -132,6 +132,7 @@ def _descend(
     return q, it
 
 
+@kernel("relax", in_axes=(None, 0, 0, None, None, None))
 def relax_seed(
     layout: TubeLayout,
     p: ModelParams,
@@ -173,11 +174,3 @@ def relax_seed(
         status=out.status,
         residual=jnp.max(jnp.abs(out.r)),
     )
-
-
-@functools.lru_cache(maxsize=16)
-def compiled_relax(layout: TubeLayout) -> Any:
-    """``jit(vmap(relax_seed))`` of a layout over (target, mask); built once."""
-    fn = functools.partial(relax_seed, layout)
-    batched = jax.vmap(fn, in_axes=(None, 0, 0, None, None, None))
-    return stored_jit(batched, "relax", layout, kernel_options())

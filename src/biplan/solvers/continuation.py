@@ -217,7 +217,7 @@ def trace_path(
         raise ConfigError("control.stop", control.stop, f"a value other than the start {lam0:g}")
 
     size = BUFFER_QUANTUM * int(np.ceil((method.max_steps + 1) / BUFFER_QUANTUM))
-    run = pk.compiled_path(model.layout, size)
+    run = pk.path_loop.compiled(model.layout, size)
     out = run(
         model.params,
         jnp.asarray(first.z),
@@ -337,7 +337,7 @@ def _locate(
     Λ need not be monotone in the bracket near a kink of a trilinear law, so the Λ of the
     far end is no bound), or None."""
     nq = model.n_coordinates
-    corr = pk.compiled_corrector(model.layout)
+    corr = pk.corrector.compiled(model.layout)
     f_a = float(np.asarray(obs.min_eigenvalue)[i])  # type: ignore[attr-defined]
     lo, hi = 0.0, 1.0
     best: tuple[np.ndarray, float, float] | None = None

@@ -29,8 +29,8 @@ from typing import Any
 import numpy as np
 
 from biplan._errors import ConfigError, check_finite, check_integer, check_range
-from biplan._jax import jax, jnp, kernel_options
-from biplan._kernels import stored_jit
+from biplan._jax import jax, jnp
+from biplan._kernels import kernel
 from biplan.assembly import Load, Model
 from biplan.inertia import mass_matrix
 from biplan.solvers import _dynkernel as dk
@@ -181,10 +181,10 @@ class LoadHistory:
         )
 
 
-@functools.lru_cache(maxsize=16)
-def _mass_kernel(layout: Any) -> Any:
-    fn = functools.partial(mass_matrix, layout)
-    return stored_jit(fn, "mass_matrix", layout, kernel_options())
+@kernel("mass_matrix")
+def _mass(layout: Any, p: Any, q: Any, surface_density: Any) -> Any:
+    """:func:`biplan.inertia.mass_matrix` (the compiled form: ``_mass.compiled(layout)``)."""
+    return mass_matrix(layout, p, q, surface_density)
 
 
 def mass_matrix_at(model: Model, q: np.ndarray) -> np.ndarray:
@@ -192,7 +192,7 @@ def mass_matrix_at(model: Model, q: np.ndarray) -> np.ndarray:
     q = np.asarray(q, dtype=float)
     if q.shape != (model.n_coordinates,):
         raise ConfigError("q", q.shape, f"shape ({model.n_coordinates},)")
-    m = _mass_kernel(model.layout)(model.params, jnp.asarray(q), model.tube.surface_density)
+    m = _mass.compiled(model.layout)(model.params, jnp.asarray(q), model.tube.surface_density)
     return np.asarray(m)
 
 
@@ -287,10 +287,10 @@ def integrate(
     )
     load0 = _load_at(ctl, load.value(0.0))
     state = _initial_state(model, z0, v, load0)
-    run = dk.compiled_chunk(model.layout)
+    run = dk.chunk.compiled(model.layout)
     args = (jnp.asarray(ctl), jnp.asarray(times), jnp.asarray(values), jnp.asarray(settings))
     kin0 = float(
-        dk.compiled_kinetic(model.layout)(
+        dk.kinetic_energy.compiled(model.layout)(
             model.params, jnp.asarray(z0[:nq]), jnp.asarray(v), model.tube.surface_density
         )
     )

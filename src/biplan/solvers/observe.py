@@ -22,14 +22,13 @@ NumPy reference of the same test; the test-suite checks that both agree.
 
 from __future__ import annotations
 
-import functools
 from typing import Any, NamedTuple
 
 import numpy as np
 
 from biplan import _linalg as linalg
-from biplan._jax import jax, jnp, kernel_options
-from biplan._kernels import stored_jit
+from biplan._jax import jnp
+from biplan._kernels import kernel
 from biplan.assembly import (
     Load,
     ModelParams,
@@ -169,11 +168,10 @@ def observe(
     )
 
 
-@functools.lru_cache(maxsize=64)
-def _batched(layout: TubeLayout) -> Any:
-    weak = layout.options.weak_contacts_active
-    fn = functools.partial(observe, layout, weak_contacts=weak)
-    return stored_jit(jax.vmap(fn, in_axes=(None, 0, 0)), "observe", layout, kernel_options())
+@kernel("observe", in_axes=(None, 0, 0))
+def _observe_layout(layout: TubeLayout, p: ModelParams, z: Array, load: Load) -> Observation:
+    """:func:`observe` with the layout's own reading of weak contacts."""
+    return observe(layout, p, z, load, layout.options.weak_contacts_active)
 
 
 def observe_batch(layout: TubeLayout, params: ModelParams, z: Array, loads: Load) -> Observation:
@@ -185,7 +183,7 @@ def observe_batch(layout: TubeLayout, params: ModelParams, z: Array, loads: Load
     z = np.asarray(z, dtype=float)
     k = z.shape[0]
     cols = [np.broadcast_to(np.asarray(v, dtype=float), (k,)) for v in loads]
-    fn = _batched(layout)
+    fn = _observe_layout.compiled(layout)
     parts: list[Observation] = []
     for lo in range(0, k, CHUNK):
         hi = min(lo + CHUNK, k)

@@ -21,15 +21,15 @@ traced scalar, so one compiled kernel serves every chunk of a sweep.
 
 from __future__ import annotations
 
-import functools
 from typing import Any, NamedTuple
 
-from biplan._jax import jax, jnp, kernel_options
-from biplan._kernels import stored_jit
+from biplan._jax import jax, jnp
+from biplan._kernels import kernel
 from biplan.assembly import Load, TubeLayout
+from biplan.solvers.core import Settings
 from biplan.solvers.newton import newton_machine
 
-__all__ = ["PoolResult", "newton_pool", "pool_kernel"]
+__all__ = ["PoolResult", "newton_pool"]
 
 Array = Any
 
@@ -47,21 +47,25 @@ class PoolResult(NamedTuple):
     evals: Array
 
 
+@kernel("newton_pool", statics=2)
 def newton_pool(
     layout: TubeLayout,
+    lanes: int,
     params: Any,
     point: Array,
     z0: Array,
     loads: Load,
     n_tasks: Array,
-    settings: Array,
-    lanes: int,
+    settings: Settings,
 ) -> PoolResult:
-    """Solve tasks 0 … n_tasks−1 on ``lanes`` lanes (pure; jit-able).
+    """Solve tasks 0 … n_tasks−1 on ``lanes`` lanes (pure; jit-able;
+    ``newton_pool.compiled(layout, lanes)`` is its kernel).
 
     Parameters
     ----------
     layout : TubeLayout
+    lanes : int
+        Solves in flight (static).
     params : ModelParams
         Stacked along a leading "point" axis (P, …).
     point : int array (T,)
@@ -72,10 +76,8 @@ def newton_pool(
         Of (T,) arrays: each task's load.
     n_tasks : int scalar
         Number of real tasks (the first n_tasks of the T); the rest is padding.
-    settings : array
+    settings : Settings
         ``Newton.settings()``.
-    lanes : int
-        Solves in flight (static).
     """
     n_total = z0.shape[0]
 
@@ -131,10 +133,3 @@ def newton_pool(
     nxt0 = jnp.minimum(jnp.asarray(lanes), n_tasks)
     _, _, _, out = jax.lax.while_loop(cond, body, (tasks0, state0, nxt0, out0))
     return out
-
-
-@functools.lru_cache(maxsize=16)
-def pool_kernel(layout: TubeLayout, lanes: int) -> Any:
-    """The jitted :func:`newton_pool` of a layout and lane count (built once)."""
-    fn = functools.partial(newton_pool, layout, lanes=lanes)
-    return stored_jit(fn, "newton_pool", (layout, lanes), kernel_options())
