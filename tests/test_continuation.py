@@ -198,3 +198,25 @@ def test_path_dataset_netcdf_and_csv_round_trip(tmp_path, model6, force_path):
     header = (tmp_path / "p.csv").read_text().splitlines()[1].split(",")
     for col in ("force", "u_z", "u_r", "theta", "energy", "min_eigenvalue", "stable"):
         assert col in header
+
+
+def test_states_observed_in_the_path_kernel_equal_a_fresh_observation(model6):
+    """The path kernel observes each accepted state from its corrector's KKT Jacobian
+    (``observe_from_jacobian``); a fresh ``observe_batch`` (a second assembly) gives the same
+    observables (through the phase-1 peak, where λ_min changes sign)."""
+    path = biplan.trace_path(
+        model6,
+        biplan.ArcLength(initial_step=0.05, max_step=0.1, locate_events=False),
+        None,
+        biplan.Control.displacement(2.0),
+    )
+    assert path.completed, path.message
+    n = len(path.load_parameter)
+    loads = Load(np.zeros(n), np.asarray(path.load_parameter), np.ones(n))
+    fresh = observe_batch(model6.layout, model6.params, path.z, loads)
+    for name in ("force", "displacement", "u_z", "u_r", "theta", "energy", "phase_fraction"):
+        np.testing.assert_allclose(
+            getattr(path, name), getattr(fresh, name), rtol=1e-10, atol=1e-10, err_msg=name
+        )
+    np.testing.assert_allclose(path.min_eigenvalue, fresh.min_eigenvalue, rtol=1e-8, atol=1e-9)
+    assert np.any(path.min_eigenvalue < 0) and np.any(path.min_eigenvalue > 0)

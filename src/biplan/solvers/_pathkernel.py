@@ -25,6 +25,7 @@ from biplan._jax import jax, jnp
 from biplan._kernels import kernel
 from biplan.assembly import Load, ModelParams, TubeLayout, kkt_jacobian, residual, sizes
 from biplan.solvers.core import Status, damped, residual_norm
+from biplan.solvers.observe import Observation, observe_from_jacobian
 
 Array = Any
 
@@ -131,6 +132,7 @@ class PathBuffers(NamedTuple):
     count: Array  # accepted states (incl. the start)
     cutbacks: Array
     status: Array
+    observation: Observation  # (B, …) of every accepted state, from its corrector's Jacobian
 
 
 @kernel("path", statics=2)
@@ -165,6 +167,12 @@ def path_loop(
 
     _, r_lam0, jac0 = _blocks(layout, p, z0, lam0, ctl)
     t0 = tangent(jac0, r_lam0, weights, w_lam, jnp.zeros(n + 1).at[n].set(direction))
+    weak = layout.options.weak_contacts_active
+
+    def observed(z: Array, lam: Array, jac: Array) -> Observation:
+        return observe_from_jacobian(layout, p, z, load_of(ctl, lam), jac, weak)
+
+    obs0 = observed(z0, lam0, jac0)
 
     buf = PathBuffers(
         z=jnp.zeros((buffer_size, n)).at[0].set(z0),
@@ -175,6 +183,10 @@ def path_loop(
         count=jnp.asarray(1),
         cutbacks=jnp.asarray(0),
         status=jnp.asarray(RUNNING),
+        observation=jax.tree_util.tree_map(
+            lambda v: jnp.zeros((buffer_size, *jnp.shape(v)), jnp.result_type(v)).at[0].set(v),
+            obs0,
+        ),
     )
 
     def cond(s: tuple) -> Array:
@@ -228,7 +240,16 @@ def path_loop(
         turned = ok & ~back & stop_at_limit & (t_new[n] * direction < 0.0)
         ok = ok & ~back
         i = b.count
+        # the state's observation from the corrector's Jacobian (computed for accepted steps)
+        obs = jax.lax.cond(
+            ok,
+            lambda: observed(c.z, c.lam, c.jac),
+            lambda: jax.tree_util.tree_map(lambda v: v[0], b.observation),
+        )
         nb = b._replace(
+            observation=jax.tree_util.tree_map(
+                lambda buf_v, v: jnp.where(ok, buf_v.at[i].set(v), buf_v), b.observation, obs
+            ),
             z=jnp.where(ok, b.z.at[i].set(c.z), b.z),
             lam=jnp.where(ok, b.lam.at[i].set(c.lam), b.lam),
             tangent=jnp.where(ok, b.tangent.at[i].set(t_new), b.tangent),

@@ -238,7 +238,8 @@ def trace_path(
 
     events: list[Event] = []
     inserted: list[tuple[int, np.ndarray, float]] = []
-    obs = observe_batch(model.layout, model.params, z, _loads(ctl, lam))
+    # observed in the path kernel from each state's corrector Jacobian (no second assembly)
+    obs = Observation(*(np.asarray(v)[:count] for v in out.observation))
     solid = np.flatnonzero(obs.penetration > FULL_CONTACT_PENETRATION)
     if solid.size:
         count = max(int(solid[0]), 1)

@@ -32,11 +32,13 @@ from biplan._kernels import kernel
 from biplan.assembly import (
     Load,
     ModelParams,
+    StateData,
     TubeLayout,
     guide_values,
     phase_fractions,
     sizes,
     state_data,
+    state_from_jacobian,
 )
 
 __all__ = [
@@ -146,8 +148,34 @@ def observe(
     layout: TubeLayout, p: ModelParams, z: Array, load: Load, weak_contacts: bool = False
 ) -> Observation:
     """Observables of one packed state z under ``load`` (pure; see module docstring)."""
+    return observation(layout, p, z, load, state_data(layout, p, z, load), weak_contacts)
+
+
+def observe_from_jacobian(
+    layout: TubeLayout,
+    p: ModelParams,
+    z: Array,
+    load: Load,
+    jac: Array,
+    weak_contacts: bool = False,
+) -> Observation:
+    """:func:`observe` from the KKT Jacobian ``jac`` at z (``assembly.kkt_jacobian``), which
+    a solver has at hand at its converged state: no second assembly
+    (:func:`biplan.assembly.state_from_jacobian`)."""
+    data = state_from_jacobian(layout, p, z, load, jac)
+    return observation(layout, p, z, load, data, weak_contacts)
+
+
+def observation(
+    layout: TubeLayout,
+    p: ModelParams,
+    z: Array,
+    load: Load,
+    data: StateData,
+    weak_contacts: bool = False,
+) -> Observation:
+    """The observables of z under ``load`` from its :class:`~biplan.assembly.StateData`."""
     nq = sizes(layout)[0]
-    data = state_data(layout, p, z, load)
     active, contact, d = _active_rows(layout, z, data.gaps, load, weak_contacts)
     lam_min, dof = min_reduced_eigenvalue(data.lagrangian_hessian, data.constraint_jacobian, active)
     force = jnp.where(d, -z[-1], load.force)
