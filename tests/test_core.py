@@ -13,7 +13,15 @@ import numpy as np
 import pytest
 
 from biplan._jax import jax, jnp
-from biplan.solvers.core import Settings, Status, chord, damped, iterate, residual_norm
+from biplan.solvers.core import (
+    Settings,
+    Status,
+    chord,
+    damped,
+    iterate,
+    minimum_norm,
+    residual_norm,
+)
 
 
 def _residual(x):
@@ -159,3 +167,20 @@ def test_chord_converges_with_a_fixed_jacobian_and_keeps_its_best_iterate() -> N
     z = jax.jit(lambda z: chord(_residual, jac, z, 1e-12, 8))(far)
     r_far = float(jnp.max(jnp.abs(_residual(far))))
     assert float(jnp.max(jnp.abs(_residual(z)))) <= r_far
+
+
+def test_minimum_norm_gauss_newton_returns_to_a_manifold_along_its_normal() -> None:
+    """One equation in two unknowns (the circle ‖x‖ = 2): minimum-norm Gauss–Newton steps are
+    radial, so from (1, 1) the core lands on the circle at (√2, √2)."""
+
+    def residual(x):
+        return jnp.stack([x[0] ** 2 + x[1] ** 2 - 4.0])
+
+    settings = Settings.of(1e-13, 30)
+    out = jax.jit(
+        lambda x: iterate(
+            residual, jax.jacfwd(residual), x, settings, solve=minimum_norm, n_equations=1
+        )
+    )(jnp.asarray([1.0, 1.0]))
+    assert _converged(out)
+    np.testing.assert_allclose(np.asarray(out.z), [np.sqrt(2.0), np.sqrt(2.0)], atol=1e-12)

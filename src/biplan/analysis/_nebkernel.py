@@ -16,7 +16,8 @@ pass ``vmap``-ping over the images:
    (Henkelman, Uberuaga & Jónsson 2000).
 3. **FIRE** step (Bitzek et al. 2006) on the interior images, the step capped per image.
 4. **Return to the manifold.** Each image is pulled back by minimum-norm Gauss–Newton steps
-   on [g(q); min(w_∂(q), 0)] (guides exactly, penetrated contacts to zero gap).
+   on [g(q); min(w_∂(q), 0)] (guides exactly, penetrated contacts to zero gap), run by the
+   Newton core (:func:`project`).
 
 Convergence: max |F| over the interior images below the tolerance, with the climbing image on.
 """
@@ -29,6 +30,7 @@ from biplan import _linalg as linalg
 from biplan._jax import jax, jnp
 from biplan._kernels import kernel
 from biplan.assembly import ModelParams, TubeLayout, contact_gaps, energy, guide_values, sizes
+from biplan.solvers.core import Settings, iterate, minimum_norm
 
 __all__ = ["BandOutput", "band_forces", "project", "relax_band"]
 
@@ -36,6 +38,8 @@ Array = Any
 
 #: Gauss–Newton iterations of the return to the constraint manifold after each step.
 PROJECTION_ITERATIONS = 4
+#: Constraint violation [mm] below which the return stops early.
+PROJECTION_TOLERANCE = 1e-13
 #: FIRE constants (Bitzek et al. 2006).
 FIRE_N_MIN, FIRE_INC, FIRE_DEC, FIRE_ALPHA0, FIRE_FALPHA = 5, 1.1, 0.5, 0.1, 0.99
 
@@ -94,21 +98,29 @@ def _project_direction(rows: Array, v: Array) -> Array:
 
 
 def project(layout: TubeLayout, p: ModelParams, q: Array) -> Array:
-    """Return one image to the constraint manifold: g(q) = 0, w_∂(q) ≥ 0 (min-norm Gauss–Newton)."""
-    _nq, ng, _nc = sizes(layout)
+    """Return one image to the constraint manifold: g(q) = 0, w_∂(q) ≥ 0 — minimum-norm
+    Gauss–Newton steps on [g(q); min(w_∂(q), 0)] by the Newton core
+    (:func:`biplan.solvers.core.iterate` with :func:`~biplan.solvers.core.minimum_norm`):
+    :data:`PROJECTION_ITERATIONS` full steps (the watchdog's free steps), ending at the
+    iterate of smallest violation, or earlier below :data:`PROJECTION_TOLERANCE`."""
+    _nq, ng, nc = sizes(layout)
 
     def res(x: Array) -> Array:
         c = _constraints(layout, p, x)
         return jnp.concatenate([c[:ng], jnp.minimum(c[ng:], 0.0)])
 
-    def body(_: int, x: Array) -> Array:
-        r = res(x)
-        jac = jax.jacfwd(res)(x)
-        step = -linalg.pinv(jac, rtol=1e-10) @ r
-        new = x + step
-        return jnp.where(jnp.all(jnp.isfinite(new)), new, x)
-
-    return jax.lax.fori_loop(0, PROJECTION_ITERATIONS, body, q)
+    settings = Settings.of(PROJECTION_TOLERANCE, PROJECTION_ITERATIONS, 1, 1e-4, 0)
+    out = iterate(
+        res,
+        jax.jacfwd(res),
+        q,
+        settings,
+        free_steps=PROJECTION_ITERATIONS,
+        levenberg_marquardt=False,
+        solve=minimum_norm,
+        n_equations=ng + nc,
+    )
+    return out.z
 
 
 def band_forces(

@@ -130,7 +130,8 @@ def directions(kind: ModuleKind, mirror: MirrorConvention, beta: Array) -> tuple
 def rotation(phi: Array) -> Array:
     """R(φ) (SI Eq. 9)."""
     c, s = jnp.cos(phi), jnp.sin(phi)
-    return jnp.array([[c, -s], [s, c]])
+    # stacked, not ``jnp.array`` of nested tracers: a smaller graph at every call site
+    return jnp.stack([jnp.stack([c, -s]), jnp.stack([s, c])])
 
 
 def element_map(q: Array, ref: Array, element: int, r0: Array) -> Array:

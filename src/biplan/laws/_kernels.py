@@ -62,23 +62,29 @@ def force(w: Array, c: Coefficients) -> Array:
     return jnp.where(w < w1, k1 * w, jnp.where(w < w2, f1 + k2 * (w - w1), f2 + k3 * (w - w2)))
 
 
-def _psi_branches(w: Array, c: Coefficients) -> tuple[Array, Array, Array]:
+def _psi_on(j: int, w: Array, c: Coefficients, consts: tuple[Array, ...]) -> Array:
+    """Ψ on branch ``j`` (its quadratic continued beyond the branch), given ``_consts(c)``."""
     k1, k2, k3, w1, w2 = c
-    f1, f2, psi1, psi2, _, _ = _consts(c)
-    d1 = w - w1
+    f1, f2, psi1, psi2, _, _ = consts
+    if j == 0:
+        return 0.5 * k1 * w**2
+    if j == 1:
+        d1 = w - w1
+        return psi1 + f1 * d1 + 0.5 * k2 * d1**2
     d2 = w - w2
-    return (
-        0.5 * k1 * w**2,
-        psi1 + f1 * d1 + 0.5 * k2 * d1**2,
-        psi2 + f2 * d2 + 0.5 * k3 * d2**2,
-    )
+    return psi2 + f2 * d2 + 0.5 * k3 * d2**2
+
+
+def _psi(w: Array, c: Coefficients, consts: tuple[Array, ...]) -> Array:
+    """Ψ(w) on its own branch, given ``_consts(c)``."""
+    _, _, _, w1, w2 = c
+    p0, p1, p2 = (_psi_on(j, w, c, consts) for j in range(3))
+    return jnp.where(w < w1, p0, jnp.where(w < w2, p1, p2))
 
 
 def energy_density(w: Array, c: Coefficients) -> Array:
     """Energy per unit fold length Ψ(w) = ∫_0^w F [N] (main Eq. field_constitutive_energy)."""
-    _, _, _, w1, w2 = c
-    p0, p1, p2 = _psi_branches(w, c)
-    return jnp.where(w < w1, p0, jnp.where(w < w2, p1, p2))
+    return _psi(w, c, _consts(c))
 
 
 def antiderivative(w: Array, c: Coefficients) -> Array:
@@ -120,17 +126,19 @@ def field_energy(w0: Array, wl: Array, length: Array, c: Coefficients) -> Array:
     used, which is exact, smooth and free of cancellation as wL → w0.
     """
     k1, k2, k3, w1, w2 = c
+    consts = _consts(c)  # once: the graph of a kernel that integrates many fields stays small
     lo, hi, widths, mids = _pieces(w0, wl, c)
     d = hi - lo
     straddles = ((w1 > lo) & (w1 < hi)) | ((w2 > lo) & (w2 < hi))
     one_piece = (~straddles) | (d < SPLIT_TOLERANCE)
     m = 0.5 * (w0 + wl)
-    whole = energy_density(m, c) + (wl - w0) ** 2 * stiffness(m, c) / 24.0  # smooth at wl = w0
+    psi_m = _psi(m, c, consts)
+    whole = psi_m + (wl - w0) ** 2 * stiffness(m, c) / 24.0  # smooth at wl = w0
     ks = (k1, k2, k3)
     total = 0.0
     for j in range(3):
         h = widths[j]
-        total = total + h * (_psi_branches(mids[j], c)[j] + h**2 * ks[j] / 24.0)
+        total = total + h * (_psi_on(j, mids[j], c, consts) + h**2 * ks[j] / 24.0)
     d_safe = jnp.where(one_piece, 1.0, d)
     split = total / d_safe
     return length * jnp.where(one_piece, whole, split)

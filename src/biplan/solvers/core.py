@@ -36,6 +36,7 @@ __all__ = [
     "damped",
     "iterate",
     "machine",
+    "minimum_norm",
     "residual_norm",
 ]
 
@@ -136,6 +137,8 @@ def machine(
     free_steps: int | None = 0,
     levenberg_marquardt: bool = True,
     converged: Callable[[Array, Array], Array] | None = None,
+    solve: Callable[[Array, Array], Array] | None = None,
+    n_equations: int | None = None,
     axis_name: str | None = None,
 ) -> tuple:
     """(init, body, running, finish) of the globalised Newton iteration on R(z) = 0.
@@ -179,6 +182,12 @@ def machine(
     ‖R‖∞ < ``settings.atol``. The deflated system converges on its *undeflated* residual
     (:mod:`biplan.analysis.deflation`).
 
+    ``solve(J, b)`` (static): the Newton direction's linear solve, default LU. With the
+    minimum-norm least-squares solve (:func:`minimum_norm`) the system may be rectangular
+    (fewer equations than unknowns: a Gauss–Newton return to a constraint manifold); then
+    ``n_equations`` (static) is the length of R (default: the number of unknowns — given,
+    not traced, so that the residual is traced only once).
+
     ``axis_name`` (static): the name of an enclosing ``vmap`` axis (``jax.vmap(...,
     axis_name=...)``). The Levenberg–Marquardt direction (a normal-equations solve, ≈ 1/4 of
     a pass) is then computed only when some lane of the batch needs it (``lax.cond`` on a
@@ -215,11 +224,14 @@ def machine(
         """:func:`lm_direction` where ``need`` (zeros elsewhere: never selected there),
         computed only if some lane of the ``axis_name`` batch needs it; NaN (a failed
         search) when Levenberg–Marquardt is off."""
+        n = jac.shape[1]
         if not levenberg_marquardt:
-            return jnp.full_like(r, jnp.nan)
+            return jnp.full(n, jnp.nan, r.dtype)
         return jax.lax.cond(
-            any_lane(need), lambda: lm_direction(jac, r, damping), lambda: jnp.zeros_like(r)
+            any_lane(need), lambda: lm_direction(jac, r, damping), lambda: jnp.zeros(n, r.dtype)
         )
+
+    direction = linalg.solve if solve is None else solve
 
     def done(z: Array, r: Array) -> Array:
         if converged is not None:
@@ -291,7 +303,7 @@ def machine(
         """Move to the accepted trial point: its Jacobian and Newton direction."""
         zt, rt, ft = s.z + s.alpha * s.dz, s.r_trial, s.f_trial
         jt = jacobian(zt)
-        dz_n = linalg.solve(jt, -rt)
+        dz_n = direction(jt, -rt)
         newton_ok = jnp.all(jnp.isfinite(dz_n))
         # singular Newton system: a Levenberg–Marquardt step instead
         dz_a = jnp.where(newton_ok, dz_n, lm_if(s.pending & ~newton_ok, jt, rt, s.damping))
@@ -328,7 +340,7 @@ def machine(
         jt = jacobian(zt)
 
         # accepted: new iterate and Newton direction
-        dz_n = linalg.solve(jt, -rt)
+        dz_n = direction(jt, -rt)
         newton_ok = jnp.all(jnp.isfinite(dz_n))
         converged = done(zt, rt)
 
@@ -391,11 +403,12 @@ def machine(
 
     def init(z0: Array) -> LoopState:
         n = z0.shape[0]
+        m = n if n_equations is None else n_equations
         return LoopState(
             z=z0,
-            r=jnp.zeros(n),
+            r=jnp.zeros(m),
             f=jnp.asarray(jnp.inf),
-            jac=jnp.eye(n),
+            jac=jnp.eye(m, n),
             dz=jnp.zeros(n),
             slope=jnp.asarray(0.0),
             alpha=jnp.asarray(0.0),
@@ -405,13 +418,13 @@ def machine(
             evals=jnp.asarray(0),
             status=jnp.asarray(-1),
             pending=jnp.asarray(False),
-            r_trial=jnp.zeros(n),
+            r_trial=jnp.zeros(m),
             f_trial=jnp.asarray(jnp.inf),
             free=jnp.asarray(free0),
             best_z=z0,
-            best_r=jnp.zeros(n),
+            best_r=jnp.zeros(m),
             best_f=jnp.asarray(jnp.inf),
-            best_jac=jnp.eye(n),
+            best_jac=jnp.eye(m, n),
             best_dz=jnp.zeros(n),
             best_lm=jnp.asarray(False),
         )
@@ -470,6 +483,12 @@ def damped(
 def residual_norm(state: LoopState) -> Array:
     """‖R‖∞ at the state's iterate (+∞ when no point was accepted: a non-finite start)."""
     return jnp.where(jnp.isfinite(state.f), jnp.max(jnp.abs(state.r)), jnp.inf)
+
+
+def minimum_norm(jac: Array, b: Array) -> Array:
+    """The minimum-norm least-squares x of J x ≈ b (pseudo-inverse; singular values below
+    1e-10 of the largest are dropped): the Gauss–Newton step of an underdetermined system."""
+    return linalg.pinv(jac, rtol=1e-10) @ b
 
 
 def chord(
