@@ -165,27 +165,28 @@ def path_loop(
     weights = _weights(layout, n)
     direction = jnp.sign(stop - lam0)
 
-    _, r_lam0, jac0 = _blocks(layout, p, z0, lam0, ctl)
-    t0 = tangent(jac0, r_lam0, weights, w_lam, jnp.zeros(n + 1).at[n].set(direction))
     weak = layout.options.weak_contacts_active
 
     def observed(z: Array, lam: Array, jac: Array) -> Observation:
         return observe_from_jacobian(layout, p, z, load_of(ctl, lam), jac, weak)
 
-    obs0 = observed(z0, lam0, jac0)
+    # The start's tangent and observation come from the loop's first pass: a corrector with
+    # no step (Λ fixed at Λ0) evaluates the Jacobian at z0, so the kernel holds one residual
+    # and one Jacobian site, not a second pair for the start (half the compile time).
+    t_orient = jnp.zeros(n + 1).at[n].set(direction)
+    shapes = jax.eval_shape(observed, z0, lam0, jnp.zeros((n, n)))
 
     buf = PathBuffers(
         z=jnp.zeros((buffer_size, n)).at[0].set(z0),
         lam=jnp.zeros(buffer_size).at[0].set(lam0),
-        tangent=jnp.zeros((buffer_size, n + 1)).at[0].set(t0),
+        tangent=jnp.zeros((buffer_size, n + 1)),
         step=jnp.zeros(buffer_size),
         iterations=jnp.zeros(buffer_size, dtype=int),
         count=jnp.asarray(1),
         cutbacks=jnp.asarray(0),
         status=jnp.asarray(RUNNING),
         observation=jax.tree_util.tree_map(
-            lambda v: jnp.zeros((buffer_size, *jnp.shape(v)), jnp.result_type(v)).at[0].set(v),
-            obs0,
+            lambda v: jnp.zeros((buffer_size, *v.shape), v.dtype), shapes
         ),
     )
 
@@ -193,7 +194,8 @@ def path_loop(
         return s[0].status == RUNNING
 
     def body(s: tuple) -> tuple:
-        b, z, lam, t, ds, fails = s
+        b, z, lam, t, ds, fails, started = s
+        first = ~started
         tz, tl = t[:n], t[n]
         # predictor
         h = ds * direction
@@ -207,9 +209,12 @@ def path_loop(
         mode = jnp.where(natural, 2, fails % 3)
         zp = jnp.where(mode == 2, z_nat, z_arc)
         lp = jnp.where(mode == 2, l_nat, l_arc)
-        final = (lp - stop) * direction >= 0.0
+        # the first pass stays at the start: Λ fixed at Λ0, z0 as the predictor, no step
+        zp = jnp.where(first, z, zp)
+        lp = jnp.where(first, lam, lp)
+        final = ~first & ((lp - stop) * direction >= 0.0)
         # side condition: hyperplane ⟂ tangent, or Λ fixed (natural / final step)
-        fix = (mode == 2) | final
+        fix = (mode == 2) | final | first
         # After a failed pseudo-arclength corrector, alternate with the local parametrisation
         # by the coordinate that changes fastest (Rheinboldt): it passes the corners of the path
         # that piecewise-linear laws create when several folds cross a breakpoint together.
@@ -222,7 +227,16 @@ def path_loop(
         rho = jnp.where(fix, target, row_z @ zp + row_l * lp)
         zp = jnp.where(final & natural, z + ((stop - lam) / tl_safe) * tz, zp)
         c = corrector(
-            layout, p, zp, jnp.where(fix, target, lp), ctl, row_z, row_l, rho, atol, max_it
+            layout,
+            p,
+            zp,
+            jnp.where(fix, target, lp),
+            ctl,
+            row_z,
+            row_l,
+            rho,
+            atol,
+            jnp.where(first, 0, max_it),
         )
         ok = c.converged
         # orient the new tangent along the old one after a pseudo-arclength step (smooth limit
@@ -231,7 +245,11 @@ def path_loop(
         secant = jnp.concatenate([c.z - z, (c.lam - lam)[None]])
         sec_norm = jnp.sqrt(jnp.sum(weights * secant[:n] ** 2) + (w_lam * secant[n]) ** 2)
         t_new = tangent(
-            c.jac, c.r_lam, weights, w_lam, jnp.where((sec_norm > 0) & (mode > 0), secant, t)
+            c.jac,
+            c.r_lam,
+            weights,
+            w_lam,
+            jnp.where((sec_norm > 0) & (mode > 0) & started, secant, t),
         )
         # a retry must move on along the branch in q, not fall back onto the traversed part
         forward = jnp.sum(weights * secant[:n] * tz) > 0.0
@@ -242,9 +260,15 @@ def path_loop(
         i = b.count
         # the state's observation from the corrector's Jacobian (computed for accepted steps)
         obs = jax.lax.cond(
-            ok,
+            ok | first,
             lambda: observed(c.z, c.lam, c.jac),
             lambda: jax.tree_util.tree_map(lambda v: v[0], b.observation),
+        )
+        start = b._replace(
+            tangent=b.tangent.at[0].set(t_new),
+            observation=jax.tree_util.tree_map(
+                lambda buf_v, v: buf_v.at[0].set(v), b.observation, obs
+            ),
         )
         nb = b._replace(
             observation=jax.tree_util.tree_map(
@@ -284,14 +308,19 @@ def path_loop(
             ),
         )
         nb = nb._replace(status=status)
-        return (
+        stepped = (
             nb,
             jnp.where(ok, c.z, z),
             jnp.where(ok, c.lam, lam),
             jnp.where(ok, t_new, t),
             ds_new,
             jnp.where(ok, 0, fails + 1),
+            started,
         )
+        # the first pass only records the start's tangent and observation
+        begun = (start, z, lam, t_new, ds, fails, jnp.asarray(True))
+        return jax.tree_util.tree_map(lambda a, b_: jnp.where(first, a, b_), begun, stepped)
 
-    out = jax.lax.while_loop(cond, body, (buf, z0, lam0, t0, ds0, jnp.asarray(0)))
+    init = (buf, z0, lam0, t_orient, ds0, jnp.asarray(0), jnp.asarray(False))
+    out = jax.lax.while_loop(cond, body, init)
     return out[0]

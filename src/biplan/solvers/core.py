@@ -208,7 +208,8 @@ def machine(
         else free_steps
     )
     alpha_min = 0.5**max_bt
-    max_evals = max_steps * (max_bt + 1)
+    # max_steps = 0 evaluates R and its Jacobian at z0 only (one trial, the start)
+    max_evals = jnp.maximum(max_steps, 1) * (max_bt + 1)
 
     def lm_direction(jac: Array, r: Array, damping: Array) -> Array:
         jtj = jac.T @ jac
