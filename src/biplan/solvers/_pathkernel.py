@@ -254,38 +254,36 @@ def path_loop(
         # a retry must move on along the branch in q, not fall back onto the traversed part
         forward = jnp.sum(weights * secant[:n] * tz) > 0.0
         ok = ok & jnp.all(jnp.isfinite(t_new)) & ((mode == 0) | natural | forward)
-        back = ok & ((c.lam - lam0) * direction < 0.0)
-        turned = ok & ~back & stop_at_limit & (t_new[n] * direction < 0.0)
-        ok = ok & ~back
-        i = b.count
-        # the state's observation from the corrector's Jacobian (computed for accepted steps)
+        back = ok & started & ((c.lam - lam0) * direction < 0.0)
+        turned = ok & ~back & stop_at_limit & (t_new[n] * direction < 0.0) & started
+        # the first pass records only the start's tangent and observation (at index 0)
+        ok = ok & ~back & started
+        record = ok | first
+        i = jnp.where(first, 0, b.count)
+        # the state's observation from the corrector's Jacobian (computed for recorded states)
         obs = jax.lax.cond(
-            ok | first,
+            record,
             lambda: observed(c.z, c.lam, c.jac),
             lambda: jax.tree_util.tree_map(lambda v: v[0], b.observation),
         )
-        start = b._replace(
-            tangent=b.tangent.at[0].set(t_new),
-            observation=jax.tree_util.tree_map(
-                lambda buf_v, v: buf_v.at[0].set(v), b.observation, obs
-            ),
-        )
         nb = b._replace(
             observation=jax.tree_util.tree_map(
-                lambda buf_v, v: jnp.where(ok, buf_v.at[i].set(v), buf_v), b.observation, obs
+                lambda buf_v, v: jnp.where(record, buf_v.at[i].set(v), buf_v),
+                b.observation,
+                obs,
             ),
             z=jnp.where(ok, b.z.at[i].set(c.z), b.z),
             lam=jnp.where(ok, b.lam.at[i].set(c.lam), b.lam),
-            tangent=jnp.where(ok, b.tangent.at[i].set(t_new), b.tangent),
+            tangent=jnp.where(record, b.tangent.at[i].set(t_new), b.tangent),
             step=jnp.where(ok, b.step.at[i].set(ds), b.step),
             iterations=jnp.where(ok, b.iterations.at[i].set(c.iterations), b.iterations),
             count=b.count + ok.astype(int),
-            cutbacks=b.cutbacks + (~ok & ~back).astype(int),
+            cutbacks=b.cutbacks + (~ok & ~back & started).astype(int),
         )
         easy = c.iterations <= 3
         hard = c.iterations >= 7
         ds_ok = jnp.where(easy, jnp.minimum(ds * grow, ds_max), jnp.where(hard, 0.7 * ds, ds))
-        ds_new = jnp.where(ok, ds_ok, jnp.where(mode == 2, 0.5 * ds, ds))
+        ds_new = jnp.where(ok, ds_ok, jnp.where((mode == 2) & started, 0.5 * ds, ds))
         status = jnp.where(
             back,
             RETURNED,
@@ -307,19 +305,16 @@ def path_loop(
                 ),
             ),
         )
-        nb = nb._replace(status=status)
-        stepped = (
+        nb = nb._replace(status=jnp.where(first, RUNNING, status))
+        return (
             nb,
             jnp.where(ok, c.z, z),
             jnp.where(ok, c.lam, lam),
-            jnp.where(ok, t_new, t),
+            jnp.where(record, t_new, t),
             ds_new,
-            jnp.where(ok, 0, fails + 1),
-            started,
+            jnp.where(record, 0, fails + 1),
+            jnp.asarray(True),
         )
-        # the first pass only records the start's tangent and observation
-        begun = (start, z, lam, t_new, ds, fails, jnp.asarray(True))
-        return jax.tree_util.tree_map(lambda a, b_: jnp.where(first, a, b_), begun, stepped)
 
     init = (buf, z0, lam0, t_orient, ds0, jnp.asarray(0), jnp.asarray(False))
     out = jax.lax.while_loop(cond, body, init)

@@ -239,6 +239,11 @@ def machine(
             return converged(z, r)
         return jnp.max(jnp.abs(r)) < atol
 
+    def search_failed(to_lm: Array, damping: Array) -> Array:
+        """A rejected trial ends the search: LM damping past 1e12, or the halvings spent
+        when there is no Levenberg–Marquardt."""
+        return (damping > 1e12) | (to_lm if not levenberg_marquardt else False)
+
     def stuck(newton_ok: Array) -> Array:
         """A singular Newton system ends the solve when there is no Levenberg–Marquardt."""
         return ~newton_ok if not levenberg_marquardt else jnp.asarray(False)
@@ -285,7 +290,7 @@ def machine(
         to_lm = s.lm | (s.alpha * 0.5 < alpha_min)
         damping_r = jnp.where(s.lm, s.damping * 10.0, s.damping)
         dz_r = jnp.where(to_lm, lm_if(~accept & to_lm, s.jac, s.r, damping_r), s.dz)
-        failed = (damping_r > 1e12) | (to_lm if not levenberg_marquardt else False)
+        failed = search_failed(to_lm, damping_r)
         # only the search fields change (z, r, f, jac and steps stay until the update)
         return s._replace(
             dz=jnp.where(accept, s.dz, dz_r),
@@ -367,7 +372,7 @@ def machine(
         failed = jnp.where(
             accept,
             stuck(newton_ok),
-            (damping_r > 1e12) | (to_lm if not levenberg_marquardt else False),
+            search_failed(to_lm, damping_r),
         )
         status = jnp.where(
             accept & converged,

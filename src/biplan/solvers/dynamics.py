@@ -24,13 +24,12 @@ from __future__ import annotations
 
 import functools
 from dataclasses import dataclass
-from typing import Any
 
 import numpy as np
 
 from biplan._errors import ConfigError, check_finite, check_integer, check_range
 from biplan._jax import jax, jnp
-from biplan._kernels import kernel
+from biplan._kernels import Kernel
 from biplan.assembly import Load, Model
 from biplan.inertia import mass_matrix
 from biplan.solvers import _dynkernel as dk
@@ -181,10 +180,8 @@ class LoadHistory:
         )
 
 
-@kernel("mass_matrix")
-def _mass(layout: Any, p: Any, q: Any, surface_density: Any) -> Any:
-    """:func:`biplan.inertia.mass_matrix` (the compiled form: ``_mass.compiled(layout)``)."""
-    return mass_matrix(layout, p, q, surface_density)
+#: :func:`biplan.inertia.mass_matrix` as a kernel (``_mass.compiled(layout)``).
+_mass = Kernel(mass_matrix, "mass_matrix")
 
 
 def mass_matrix_at(model: Model, q: np.ndarray) -> np.ndarray:
