@@ -1,16 +1,20 @@
-"""Benchmark: stable-state enumeration (issue "stable states", speed targets).
+"""Benchmark: stable-state searches of fully bistable tubes (N modules, 2N − 1 bistable folds).
 
-* N = 4 fully bistable tube, 2⁷ = 128 seeds: batched (``vmap``) enumeration, cold and warm,
-  against a Python loop over the same relaxations (the same pure ``relax_seed`` jitted for one
-  seed and called once per seed) run in the same process.
-* N = 8 (2¹⁵ = 32,768 seeds) with ``--n8``: warm time and cost per seed (a new layout: its
-  kernels compile once, reported as cold time).
+For each N of ``--sizes`` (default 4 5 6), in one process:
+
+* exhaustive search (all 2^(2N−1) seeds; :func:`biplan.analysis.states.enumerate_states`):
+  cold (a new layout: its kernels compile; the persistent cache may hold them) and warm;
+* neighbourhood search (:attr:`~biplan.analysis.states.Search.NEIGHBOURHOOD`), warm, with the
+  seeds it tried and whether it found the same states;
+* the baseline in the same run: the relaxation of every seed in lock-step ``vmap`` chunks of 16
+  (the same pure one-seed ``relax_seed`` the pool runs, as the enumeration ran before the
+  refilled lanes), warm, and its ratio to the pool's relaxation.
 
 Usage::
 
-    .venv/bin/python benchmarks/bench_states.py [--n8] [--loop-seeds 32]
+    .venv/bin/python benchmarks/bench_states.py [--sizes 4 5 6] [--baseline-max 5]
 
-Targets: N = 4 ≤ 1 s warm; N = 8 ≤ 60 s on 2 cores, cost per seed roughly flat in N.
+Targets (issue "state spaces of long fully bistable tubes"): N = 4 ≤ 0.5 s warm, N = 8 ≤ 60 s.
 """
 
 from __future__ import annotations
@@ -23,9 +27,12 @@ import numpy as np
 
 import biplan
 from biplan._jax import jax, jnp
+from biplan.analysis import seeding
 from biplan.analysis.labels import bistable_folds
-from biplan.analysis.states import Enumeration, _seed_targets, enumerate_states
+from biplan.analysis.states import Enumeration, Search, enumerate_states
 from biplan.solvers._relaxkernel import relax_seed
+
+LOCK_STEP_CHUNK = 16
 
 
 def timed(fn, *args, **kwargs):  # type: ignore[no-untyped-def]
@@ -34,56 +41,57 @@ def timed(fn, *args, **kwargs):  # type: ignore[no-untyped-def]
     return out, time.perf_counter() - t0
 
 
-def batched(n_modules: int) -> tuple[float, float, int, int]:
-    model = biplan.Model(biplan.designs.fully_bistable(n_modules=n_modules))
-    cat, cold = timed(enumerate_states, model)
-    cat, warm = timed(enumerate_states, model)
-    return cold, warm, len(cat.seeds), len(cat)
-
-
-def python_loop(n_seeds: int) -> float:
-    """Seconds per seed of a Python loop of single-seed jitted relaxations (N = 4)."""
-    model = biplan.Model(biplan.designs.fully_bistable())
+def lock_step(model: biplan.Model, target: np.ndarray, mask: np.ndarray) -> None:
     settings = Enumeration()
-    _, target, mask = _seed_targets(model, bistable_folds(model.tube))
-    fn = jax.jit(functools.partial(relax_seed, model.layout))
+    fn = jax.jit(
+        jax.vmap(
+            functools.partial(relax_seed, model.layout), in_axes=(None, 0, 0, None, None, None)
+        )
+    )
     args = (
         jnp.asarray(settings.penalty_stiffness),
         jnp.asarray(settings.max_iterations),
         settings.newton.settings(),
     )
-    fn(model.params, jnp.asarray(target[0]), jnp.asarray(mask[0]), *args).z.block_until_ready()
-    t0 = time.perf_counter()
-    for i in range(n_seeds):
-        out = fn(model.params, jnp.asarray(target[i]), jnp.asarray(mask[i]), *args)
-        out.z.block_until_ready()
-    return (time.perf_counter() - t0) / n_seeds
+    for lo in range(0, len(target), LOCK_STEP_CHUNK):
+        t, m = target[lo : lo + LOCK_STEP_CHUNK], mask[lo : lo + LOCK_STEP_CHUNK]
+        fn(model.params, jnp.asarray(t), jnp.asarray(m), *args).z.block_until_ready()
 
 
 def main() -> None:
     parser = argparse.ArgumentParser()
-    parser.add_argument("--n8", action="store_true", help="also run N = 8 (32,768 seeds)")
-    parser.add_argument("--loop-seeds", type=int, default=32)
+    parser.add_argument("--sizes", type=int, nargs="*", default=[4, 5, 6])
+    parser.add_argument("--baseline-max", type=int, default=5)
     args = parser.parse_args()
-    cold, warm, n_seeds, n_states = batched(4)
-    per_loop = python_loop(args.loop_seeds)
-    print(
-        f"N=4: {n_seeds} seeds -> {n_states} states; batched cold {cold:.1f} s, warm {warm:.2f} s"
-        f" ({1e3 * warm / n_seeds:.2f} ms/seed)"
-    )
-    print(
-        f"N=4: Python loop of jitted single-seed relaxations: {1e3 * per_loop:.2f} ms/seed "
-        f"-> {per_loop * n_seeds:.2f} s for all seeds; batched speed-up "
-        f"{per_loop * n_seeds / warm:.1f}x"
-    )
-    if args.n8:
-        cold8, warm8, n8, s8 = batched(8)
+    for n in args.sizes:
+        model = biplan.Model(biplan.designs.fully_bistable(n_modules=n))
+        cat, cold = timed(enumerate_states, model, confirm=True)
+        cat, warm = timed(enumerate_states, model, confirm=True)
+        near, _ = timed(enumerate_states, model, search=Search.NEIGHBOURHOOD)
+        near, warm_near = timed(enumerate_states, model, search=Search.NEIGHBOURHOOD)
+        same = [s.name for s in near.states] == [s.name for s in cat.states]
         print(
-            f"N=8: {n8} seeds -> {s8} states; cold {cold8:.0f} s, warm {warm8:.1f} s "
-            f"({1e3 * warm8 / n8:.2f} ms/seed; N=4: {1e3 * warm / n_seeds:.2f} ms/seed)"
+            f"N={n}: {len(cat.seeds)} seeds -> {len(cat)} states; exhaustive cold {cold:.1f} s, "
+            f"warm {warm:.2f} s ({1e3 * warm / len(cat.seeds):.2f} ms/seed); neighbourhood "
+            f"{warm_near:.2f} s, {len(near.seeds)} seeds, same states: {same}",
+            flush=True,
+        )
+        if n > args.baseline_max:
+            continue
+        folds = bistable_folds(model.tube)
+        bits = seeding.seed_bits(np.arange(2 ** len(folds)), len(folds))
+        target, mask = seeding.seed_targets(model, folds, bits)
+        settings = Enumeration()
+        timed(seeding.relax_seeds, model, target, mask, settings)
+        _, pool = timed(seeding.relax_seeds, model, target, mask, settings)
+        lock_step(model, target[:LOCK_STEP_CHUNK], mask[:LOCK_STEP_CHUNK])
+        _, base = timed(lock_step, model, target, mask)
+        print(
+            f"N={n}: relaxation of all seeds: refilled lanes {pool:.2f} s, lock-step chunks of "
+            f"{LOCK_STEP_CHUNK} {base:.2f} s (baseline / pool {base / pool:.2f}x)",
+            flush=True,
         )
 
 
 if __name__ == "__main__":
-    np.set_printoptions(precision=4)
     main()

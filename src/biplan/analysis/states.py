@@ -1,13 +1,16 @@
 """Enumeration of the stable states of a multistable MFT (SI "state transition diagram", MODEL §15).
 
-:func:`enumerate_states` seeds every combination of closed/open bistable folds (2ⁿ seeds for n
-bistable folds; 128 for the four-module fully bistable tube), relaxes all of them in one batched
-(``vmap``) computation (:mod:`biplan.solvers._relaxkernel`: a kinematic seed toward the target
-fold openings, a modified-Newton descent of the energy at zero end load with the base clamped,
-and the exact KKT solve), classifies each fold by the phase that occupies the greater part of
-its length, keeps the equilibria whose reduced Hessian is positive definite and removes
-duplicates by coordinates. Equilibria with the same bits but different coordinates stay
-distinct states.
+:func:`enumerate_states` seeds combinations of closed/open bistable folds — all 2ⁿ of them
+(:attr:`Search.EXHAUSTIVE`; 128 for the four-module fully bistable tube) or those reached by
+single-fold changes from the all-closed one (:attr:`Search.NEIGHBOURHOOD`;
+:mod:`biplan.analysis.seeding`) — relaxes them on refilled ``vmap`` lanes
+(:mod:`biplan.solvers._relaxkernel`: a kinematic seed toward the target fold openings, a
+modified-Newton descent of the energy at zero end load with the base clamped, and the exact
+KKT solve), classifies each fold by the phase that occupies the greater part of its length,
+keeps the equilibria whose reduced Hessian is positive definite and merges duplicates: two
+equilibria are one state when max |Δq| < ``Enumeration.duplicate_tolerance`` (a k-d tree in
+the max norm finds the candidates). Equilibria with the same bits but different coordinates
+stay distinct states.
 
 Every seed's outcome is kept (:class:`SeedOutcome`): the state it reached, whether its bits
 are the seed's own, or why it was rejected (unstable equilibrium with its eigenvalue, failed
@@ -16,7 +19,6 @@ solve). Nothing is merged silently.
 
 from __future__ import annotations
 
-import itertools
 import time
 from collections.abc import Callable
 from dataclasses import dataclass, field, replace
@@ -26,19 +28,21 @@ import numpy as np
 
 from biplan._errors import ConfigError, ConvergenceError, check_integer, check_range
 from biplan._jax import jnp
+from biplan.analysis import seeding
 from biplan.analysis.labels import bistable_folds, bits_to_label, label_to_bits
+from biplan.analysis.seeding import Search, fold_vector_index, relax_seeds, seed_targets
 from biplan.analysis.stability import Verdict, classify
 from biplan.assembly import Load, Model, phase_fractions
-from biplan.geometry import FoldRef
-from biplan.solvers._relaxkernel import relax_seed
 from biplan.solvers.newton import Newton, Solution, Status, solve_equilibrium
-from biplan.solvers.observe import STABILITY_TOL, observe_batch
+from biplan.solvers.observe import STABILITY_TOL
 
 if TYPE_CHECKING:
     from biplan.analysis.catalogue import StateCatalogue
+    from biplan.analysis.sweeps import ChunkSink
 
 __all__ = [
     "Enumeration",
+    "Search",
     "SeedOutcome",
     "StableState",
     "enumerate_states",
@@ -65,10 +69,11 @@ class Enumeration:
     newton : Newton
         Settings of the final KKT Newton solve (atol is the equilibrium tolerance).
     chunk : int
-        Seeds per batched call (fixed shape: one compilation for every chunk). The batched
-        while-loops run in lock-step, so a chunk costs its slowest seed: 16 enumerates the
-        four-module tube in 1.45 s warm against 2.96 s for one chunk of 128 (8 is no faster;
-        ``docs/performance.md``).
+        Seeds per call of the compiled relaxation (fixed shape: one compilation for every
+        chunk; the last chunk is padded, its padding costs nothing).
+    lanes : int
+        Seeds in flight inside a call: the descent and the polish run on ``lanes`` refilled
+        ``vmap`` lanes, so a slow seed holds one lane, not the chunk.
     duplicate_tolerance : float
         Two equilibria are the same state when max |Δq| is below this [mm, rad].
     stability_tolerance : float
@@ -78,7 +83,8 @@ class Enumeration:
     penalty_stiffness: float = 1e4
     max_iterations: int = 300
     newton: Newton = field(default_factory=Newton)
-    chunk: int = 16
+    chunk: int = 128
+    lanes: int = 8
     duplicate_tolerance: float = 1e-5
     stability_tolerance: float = STABILITY_TOL
 
@@ -86,7 +92,7 @@ class Enumeration:
         check_range("Enumeration.penalty_stiffness", self.penalty_stiffness, low=0.0)
         check_range("Enumeration.duplicate_tolerance", self.duplicate_tolerance, low=0.0)
         check_range("Enumeration.stability_tolerance", self.stability_tolerance, low=0.0)
-        for name in ("max_iterations", "chunk"):
+        for name in ("max_iterations", "chunk", "lanes"):
             v = check_integer(f"Enumeration.{name}", getattr(self, name), low=1)
             object.__setattr__(self, name, v)
 
@@ -137,62 +143,6 @@ class SeedOutcome:
         return self.reached_bits == self.seed_bits
 
 
-def fold_vector_index(model: Model, fold: FoldRef) -> int:
-    """Index of a fold in the (helical, then circular) fold vectors of the kernels."""
-    return fold.index if fold.set == "helical" else model.tube.n_modules + fold.index
-
-
-def _seed_targets(
-    model: Model, folds: tuple[FoldRef, ...], seeds: np.ndarray | None = None
-) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """(seeds, target openings, mask): every 2ⁿ bit combination unless ``seeds`` are given."""
-    tube = model.tube
-    laws = list(tube.helical_laws) + list(tube.circular_laws)
-    if seeds is None:
-        seeds = np.array(list(itertools.product((0, 1), repeat=len(folds))), dtype=int)
-    target = np.zeros((len(seeds), len(laws)))
-    mask = np.zeros(len(laws))
-    for bit, fold in enumerate(folds):
-        i = fold_vector_index(model, fold)
-        wells = laws[i].wells()
-        target[:, i] = np.where(seeds[:, bit] == 1, wells[-1], wells[0])
-        mask[i] = 1.0
-    return seeds, target, np.broadcast_to(mask, target.shape).copy()
-
-
-def relax_seeds(
-    model: Model,
-    target: np.ndarray,
-    mask: np.ndarray,
-    settings: Enumeration,
-    progress: Callable[[int, int], None] | None = None,
-) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """Batched relaxation of seeds (rows of ``target``/``mask``): (z, status, residual).
-
-    Seeds go through the compiled kernel in fixed chunks of ``settings.chunk`` (the last one
-    padded), so every chunk reuses one compilation; ``progress(done, total)`` is called after
-    each chunk.
-    """
-    fn = relax_seed.compiled(model.layout)
-    stiffness = jnp.asarray(float(settings.penalty_stiffness))
-    iterations = jnp.asarray(settings.max_iterations)
-    newton = settings.newton.settings()
-    k, chunk = len(target), settings.chunk
-    zs, status, residual = [], [], []
-    for lo in range(0, k, chunk):
-        hi = min(lo + chunk, k)
-        pad = chunk - (hi - lo)
-        t = np.concatenate([target[lo:hi], np.repeat(target[hi - 1 : hi], pad, axis=0)])
-        m = np.concatenate([mask[lo:hi], np.repeat(mask[hi - 1 : hi], pad, axis=0)])
-        out = fn(model.params, jnp.asarray(t), jnp.asarray(m), stiffness, iterations, newton)
-        zs.append(np.asarray(out.z)[: hi - lo])
-        status.append(np.asarray(out.status)[: hi - lo])
-        residual.append(np.asarray(out.residual)[: hi - lo])
-        if progress is not None:
-            progress(hi, k)
-    return np.concatenate(zs), np.concatenate(status), np.concatenate(residual)
-
-
 def state_bits(model: Model, q: np.ndarray) -> tuple[int, ...]:
     """Fold-state bits of coordinates ``q`` (free end first,
     :func:`~biplan.analysis.labels.bistable_folds`): 1 where the open branch occupies more of
@@ -237,7 +187,7 @@ def relax_state(
     if not folds:
         raise ConfigError("model", model.tube.name, "a tube with at least one bistable fold law")
     bits = label_to_bits(label, len(folds))
-    _, target, mask = _seed_targets(model, folds, np.array([bits], dtype=int))
+    target, mask = seed_targets(model, folds, np.array([bits], dtype=int))
     z, status, _ = relax_seeds(model, target, mask, settings)
     if int(status[0]) != Status.CONVERGED.value or not np.all(np.isfinite(z[0])):
         raise ConvergenceError(f"state {label}: the relaxation of its seed did not converge")
@@ -259,8 +209,12 @@ def enumerate_states(
     model: Model,
     settings: Enumeration | None = None,
     progress: Callable[[int, int], None] | None = None,
+    *,
+    search: Search = Search.EXHAUSTIVE,
+    sink: ChunkSink | None = None,
+    confirm: bool = False,
 ) -> StateCatalogue:
-    """All stable states reached from the 2ⁿ binary fold-state seeds (SI Sec. transitions).
+    """The stable states reached from fold-state seeds (SI Sec. transitions).
 
     Parameters
     ----------
@@ -268,117 +222,135 @@ def enumerate_states(
         A tube with at least one bistable fold.
     settings : Enumeration, optional
     progress : callable, optional
-        Called as ``progress(done, total)`` after every chunk of seeds.
+        Called as ``progress(done, total)`` as seeds finish.
+    search : Search
+        All 2ⁿ seeds (default), or the neighbourhood search (:mod:`biplan.analysis.seeding`).
+    sink : ChunkSink, optional
+        Exhaustive search: finished chunks of seeds are saved to it, and chunks it already
+        holds are loaded instead of relaxed (:class:`biplan.io.sweepstore.ChunkStore`: a run
+        that was killed resumes).
+    confirm : bool
+        Run an exhaustive search of more than :data:`~biplan.analysis.seeding.CONFIRM_SEEDS`
+        seeds (otherwise refused with a cost estimate, before any work).
 
     Returns
     -------
     StateCatalogue
+        ``seeds`` holds every seed tried, in seed order.
     """
     from biplan.analysis.catalogue import StateCatalogue
 
     settings = settings or Enumeration()
+    if not isinstance(search, Search):
+        raise ConfigError("search", search, " or ".join(repr(s.value) for s in Search))
     folds = bistable_folds(model.tube)
     if not folds:
         raise ConfigError("model", model.tube.name, "a tube with at least one bistable fold law")
-    if len(folds) > MAX_FOLDS:
-        raise ConfigError("model", f"{len(folds)} bistable folds", f"at most {MAX_FOLDS}")
+    seeding.check_size(len(folds), model.tube.n_modules, search, confirm, MAX_FOLDS)
     start = time.perf_counter()
-    seeds, target, mask = _seed_targets(model, folds)
-    z, status, residual = relax_seeds(model, target, mask, settings, progress)
-    n = len(z)
-    zeros = np.zeros(n)
-    obs = observe_batch(model.layout, model.params, z, Load(zeros, zeros, zeros))
-    fold_index = [fold_vector_index(model, f) for f in folds]
-    frac = obs.phase_fraction[:, fold_index, :]
-    reached = (frac[:, :, 2] > frac[:, :, 0]).astype(int)
-    converged = (status == Status.CONVERGED.value) & np.isfinite(residual)
+    if search is Search.EXHAUSTIVE:
+        res = seeding.exhaustive(model, folds, settings, sink, progress)
+    else:
+        res = seeding.neighbourhood(model, folds, settings, progress)
+    z = res["z"]
+    converged = (res["status"] == Status.CONVERGED.value) & np.isfinite(res["residual"])
     converged &= np.all(np.isfinite(z), axis=1)
+    stable = converged & (res["min_eigenvalue"] > settings.stability_tolerance)
     nq = model.layout.n_coordinates
-    tol = settings.stability_tolerance
-
-    states: list[dict] = []
-    unstable: list[np.ndarray] = []
-    unstable_eigs: list[float] = []
-    outcomes: list[SeedOutcome] = []
-    for i in range(n):
-        seed_bits = tuple(int(b) for b in seeds[i])
-        bits = tuple(int(b) for b in reached[i])
-        eig = float(obs.min_eigenvalue[i])
+    state_of = _merge(z[:, :nq], stable, settings.duplicate_tolerance)
+    unstable_of = _merge(z[:, :nq], converged & ~stable, settings.duplicate_tolerance)
+    reps = np.flatnonzero(state_of == np.arange(len(z)))
+    names = _names([tuple(int(b) for b in res["reached"][i]) for i in reps])
+    name_of = dict(zip(reps.tolist(), names, strict=True))
+    seeds_of: dict[int, list[str]] = {int(r): [] for r in reps}
+    outcomes = []
+    n_bits = len(folds)
+    for i in range(len(z)):
+        seed_bits = tuple(int(b) for b in seeding.seed_bits(res["seed"][i : i + 1], n_bits)[0])
+        eig = float(res["min_eigenvalue"][i])
         common: dict[str, Any] = {
             "seed": bits_to_label(seed_bits),
             "seed_bits": seed_bits,
-            "reached_bits": bits,
+            "reached_bits": tuple(int(b) for b in res["reached"][i]),
             "min_eigenvalue": eig,
-            "residual": float(residual[i]),
+            "residual": float(res["residual"][i]),
         }
-        if not converged[i]:
-            message = Status(int(status[i])).message if int(status[i]) in (0, 1, 2, 3) else ""
-            outcomes.append(SeedOutcome(**common, outcome="failed", state=None, message=message))
-            continue
-        if not eig > tol:
-            if not any(
-                np.max(np.abs(z[i, :nq] - u[:nq])) < settings.duplicate_tolerance for u in unstable
-            ):
-                unstable.append(z[i])
-                unstable_eigs.append(eig)
-            outcomes.append(
-                SeedOutcome(
-                    **common,
-                    outcome="unstable",
-                    state=None,
-                    message=f"equilibrium with λ_min = {eig:.3g} N/mm ≤ {tol:g}",
-                )
+        if stable[i]:
+            seeds_of[int(state_of[i])].append(common["seed"])
+            outcome = SeedOutcome(
+                **common, outcome="stable", state=name_of[int(state_of[i])], message=""
             )
-            continue
-        match = next(
-            (
-                j
-                for j, s in enumerate(states)
-                if np.max(np.abs(s["z"][:nq] - z[i, :nq])) < settings.duplicate_tolerance
-            ),
-            None,
+        elif converged[i]:
+            message = f"equilibrium with λ_min = {eig:.3g} N/mm ≤ {settings.stability_tolerance:g}"
+            outcome = SeedOutcome(**common, outcome="unstable", state=None, message=message)
+        else:
+            code = int(res["status"][i])
+            message = Status(code).message if code in (0, 1, 2, 3) else ""
+            outcome = SeedOutcome(**common, outcome="failed", state=None, message=message)
+        outcomes.append(outcome)
+    built = tuple(
+        StableState(
+            name=name_of[int(i)],
+            label=bits_to_label(tuple(int(b) for b in res["reached"][i])),
+            bits=tuple(int(b) for b in res["reached"][i]),
+            q=z[i, :nq].copy(),
+            z=z[i].copy(),
+            energy=float(res["energy"][i]),
+            u_z=float(res["u_z"][i]),
+            u_r=float(res["u_r"][i]),
+            theta=float(res["theta"][i]),
+            min_eigenvalue=float(res["min_eigenvalue"][i]),
+            phase_fraction=res["phase_fraction"][i].copy(),
+            seeds=tuple(seeds_of[int(i)]),
         )
-        if match is None:
-            states.append({"z": z[i], "i": i, "bits": bits, "seeds": []})
-            match = len(states) - 1
-        states[match]["seeds"].append(common["seed"])
-        outcomes.append(SeedOutcome(**common, outcome="stable", state=str(match), message=""))
-
-    built: list[StableState] = []
-    seen: dict[str, int] = {}
-    for s in states:
-        i = s["i"]
-        label = bits_to_label(s["bits"])
-        seen[label] = seen.get(label, 0) + 1
-        name = label if seen[label] == 1 else f"{label}.{seen[label]}"
-        built.append(
-            StableState(
-                name=name,
-                label=label,
-                bits=s["bits"],
-                q=z[i, :nq].copy(),
-                z=z[i].copy(),
-                energy=float(obs.energy[i]),
-                u_z=float(obs.u_z[i]),
-                u_r=float(obs.u_r[i]),
-                theta=float(obs.theta[i]),
-                min_eigenvalue=float(obs.min_eigenvalue[i]),
-                phase_fraction=obs.phase_fraction[i].copy(),
-                seeds=tuple(s["seeds"]),
-            )
-        )
-    names = [b.name for b in built]
-    outcomes = [
-        o if o.state is None else SeedOutcome(**{**o.__dict__, "state": names[int(o.state)]})
-        for o in outcomes
-    ]
+        for i in reps
+    )
+    unstable = np.flatnonzero(unstable_of == np.arange(len(z)))
     return StateCatalogue(
         model=model,
         folds=folds,
-        states=tuple(built),
+        states=built,
         seeds=tuple(outcomes),
-        unstable_z=np.asarray(unstable).reshape(-1, z.shape[1]),
-        unstable_eigenvalues=np.asarray(unstable_eigs, dtype=float),
+        unstable_z=z[unstable].reshape(-1, z.shape[1]),
+        unstable_eigenvalues=res["min_eigenvalue"][unstable].astype(float),
         settings=settings,
         elapsed=time.perf_counter() - start,
     )
+
+
+def _merge(q: np.ndarray, keep: np.ndarray, tolerance: float) -> np.ndarray:
+    """For each row i of ``q`` with ``keep[i]``: the first kept row r ≤ i, in row order, that
+    is a representative and has max |q_r − q_i| < tolerance (i itself when none); −1 for rows
+    not kept. Candidates come from a k-d tree in the max norm, so the cost is O(k log k)."""
+    from scipy.spatial import cKDTree
+
+    out = np.full(len(q), -1, dtype=np.int64)
+    rows = np.flatnonzero(keep)
+    if rows.size == 0:
+        return out
+    tree = cKDTree(q[rows])
+    near = tree.query_ball_point(q[rows], r=tolerance, p=np.inf)
+    is_rep = np.zeros(rows.size, dtype=bool)
+    for a, candidates in enumerate(near):
+        hits = [
+            b
+            for b in candidates
+            if b < a and is_rep[b] and np.max(np.abs(q[rows[b]] - q[rows[a]])) < tolerance
+        ]
+        if hits:
+            out[rows[a]] = out[rows[min(hits)]]
+        else:
+            is_rep[a] = True
+            out[rows[a]] = rows[a]
+    return out
+
+
+def _names(bits: list[tuple[int, ...]]) -> list[str]:
+    """Unique state names: the label, suffixed ``.2``, ``.3``… for repeated bits."""
+    seen: dict[str, int] = {}
+    names = []
+    for b in bits:
+        label = bits_to_label(b)
+        seen[label] = seen.get(label, 0) + 1
+        names.append(label if seen[label] == 1 else f"{label}.{seen[label]}")
+    return names

@@ -90,7 +90,9 @@ def state_name(argument: str, text: str, tube: Tube) -> str:
     return match[1].upper() + ("" if match[2] is None else f".{match[2]}")
 
 
-def _progress_enumeration(model: Any, quiet: bool) -> StateCatalogue:
+def _progress_enumeration(model: Any, quiet: bool, **search: Any) -> StateCatalogue:
+    """:func:`~biplan.analysis.states.enumerate_states` with a progress bar and an ETA
+    (``search``: its keyword arguments)."""
     from rich.progress import BarColumn, MofNCompleteColumn, Progress, TimeRemainingColumn
 
     from biplan.analysis.states import enumerate_states
@@ -108,7 +110,7 @@ def _progress_enumeration(model: Any, quiet: bool) -> StateCatalogue:
         def update(done: int, total: int) -> None:
             bar.update(task, completed=done, total=total)
 
-        return enumerate_states(model, progress=update)
+        return enumerate_states(model, progress=update, **search)
 
 
 def _pathways(graph: Any) -> tuple[list[list[str]], list[str]]:
@@ -200,16 +202,46 @@ def states(
     barriers: Annotated[
         bool, typer.Option("--barriers", help="Also compute the energy barrier of every edge.")
     ] = False,
+    search: Annotated[
+        str,
+        typer.Option(
+            "--search",
+            help="'exhaustive' (every 2^n seed) or 'neighbourhood' (single-fold changes from "
+            "the all-closed seed).",
+        ),
+    ] = "exhaustive",
+    yes: Annotated[
+        bool, typer.Option("--yes", help="Run an exhaustive search of more than 4096 seeds.")
+    ] = False,
+    resume: Annotated[
+        bool, typer.Option("--resume", help="Continue a killed exhaustive search in --out.")
+    ] = False,
     quiet: Annotated[bool, typer.Option("--quiet", "-q", help="No progress or summary.")] = False,
 ) -> None:
     """Enumerate the stable states of a tube; write states.csv/.nc, transitions.graphml and
-    the transition, endpoint-space and distribution figures."""
+    the transition, endpoint-space and distribution figures. An exhaustive search streams
+    its finished chunks of seeds to --out/seeds/ (``--resume`` continues a killed run)."""
     import biplan
+    from biplan.analysis.seeding import Search
     from biplan.analysis.transitions import transition_graph
 
+    try:
+        method = Search(search)
+    except ValueError:
+        valid = " or ".join(repr(m.value) for m in Search)
+        raise ConfigError("--search", search, valid) from None
+    if resume and method is not Search.EXHAUSTIVE:
+        raise ConfigError("--resume", "with --search neighbourhood", "an exhaustive search")
     output_directory(out, files=STATE_FILES)
     model = biplan.Model(biplan.load_config(config))
-    catalogue = _progress_enumeration(model, quiet)
+    sink = _seed_store(model, out, method, yes, resume)
+    try:
+        catalogue = _progress_enumeration(model, quiet, search=method, sink=sink, confirm=yes)
+    except KeyboardInterrupt:
+        kept = len(sink.finished) if sink is not None else 0
+        where = f"{kept} finished chunks kept in {out}/seeds; rerun with --resume" if sink else ""
+        Console(stderr=True, highlight=False).print(f"[yellow]interrupted[/] {where}")
+        raise typer.Exit(130) from None
     graph = transition_graph(catalogue)
     if barriers:
         _annotate(model, catalogue, graph, quiet)
@@ -224,6 +256,33 @@ def states(
         f"{graph.number_of_edges()} single-fold transitions\n"
         f"states: {' '.join(catalogue.names)}\nwrote {out}/"
     )
+
+
+def _seed_store(model: Any, out: Path, method: Any, yes: bool, resume: bool) -> Any:
+    """The chunk store of an exhaustive search in ``out/seeds`` (None for the neighbourhood
+    search), after the request's size is checked."""
+    from biplan.analysis import seeding
+    from biplan.analysis.labels import bistable_folds
+    from biplan.analysis.states import MAX_FOLDS, Enumeration
+    from biplan.io.config import dump_config
+    from biplan.io.sweepstore import ChunkStore
+
+    n_folds = len(bistable_folds(model.tube))
+    if n_folds == 0:
+        raise ConfigError("config", model.tube.name, "a tube with at least one bistable fold law")
+    with options_named({"search": "--search", "model": "CONFIG"}):
+        seeding.check_size(n_folds, model.tube.n_modules, method, yes, MAX_FOLDS)
+    if method is not seeding.Search.EXHAUSTIVE:
+        return None
+    settings = Enumeration()
+    description = {
+        "config": dump_config(model.tube),
+        "settings": repr(settings),
+        "search": method.value,
+    }
+    n_chunks = -(-(2**n_folds) // settings.chunk)
+    with options_named({"out": "--out"}):
+        return ChunkStore(out / "seeds", description, n_chunks, resume)
 
 
 def _annotate(

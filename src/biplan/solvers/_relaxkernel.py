@@ -27,6 +27,7 @@ serves every chunk and every law/geometry of the layout.
 from __future__ import annotations
 
 import functools
+from collections.abc import Callable
 from typing import Any, NamedTuple
 
 from biplan import _linalg as linalg
@@ -42,9 +43,11 @@ from biplan.assembly import (
     guide_values,
     sizes,
 )
-from biplan.solvers.newton import newton_loop
+from biplan.solvers.core import Settings
+from biplan.solvers.newton import newton_loop, newton_machine
+from biplan.solvers.pool import LANES, refill
 
-__all__ = ["RelaxOutput", "relax_seed"]
+__all__ = ["RelaxOutput", "relax_pool", "relax_seed"]
 
 Array = Any
 
@@ -99,26 +102,29 @@ def _penalized_energy(layout: TubeLayout, p: ModelParams, q: Array, stiffness: A
     return energy(layout, p, q) + 0.5 * stiffness * (g @ g + jnp.sum(jnp.minimum(gap, 0.0) ** 2))
 
 
-def _descend(
-    layout: TubeLayout, p: ModelParams, q0: Array, stiffness: Array, max_iterations: Array
-) -> tuple[Array, Array]:
-    """Modified Newton descent on the penalised energy: (q, iterations)."""
+def _descent(
+    layout: TubeLayout, p: ModelParams, stiffness: Array, max_iterations: Array
+) -> tuple[Callable[[Array], tuple], Callable[[tuple], tuple], Callable[[tuple], Array]]:
+    """Modified Newton descent on the penalised energy as (init, body, running) of a loop
+    whose state is (q, iterations, done)."""
     fun = functools.partial(_penalized_energy, layout, p, stiffness=stiffness)
     grad = jax.grad(fun)
     hess = jax.hessian(fun)
     alphas = 0.5 ** jnp.arange(LINE_SEARCH_POINTS, dtype=float)
-    nq = q0.shape[0]
 
-    def cond(s: tuple[Array, Array, Array]) -> Array:
+    def init(q0: Array) -> tuple:
+        return q0, jnp.asarray(0), jnp.asarray(False)
+
+    def running(s: tuple) -> Array:
         _, it, done = s
         return (~done) & (it < max_iterations)
 
-    def body(s: tuple[Array, Array, Array]) -> tuple[Array, Array, Array]:
+    def body(s: tuple) -> tuple:
         q, it, _ = s
         e, gr, h = fun(q), grad(q), hess(q)
         lo = linalg.eigvalsh(h)[0]
         shift = jnp.maximum(0.0, SHIFT_FLOOR - lo)
-        step = linalg.solve(h + shift * jnp.eye(nq), -gr)
+        step = linalg.solve(h + shift * jnp.eye(q.shape[0]), -gr)
         scale = jnp.minimum(1.0, DESCENT_MAX_STEP / (jnp.max(jnp.abs(step)) + 1e-300))
         step = scale * step
         trial = jax.vmap(lambda a: fun(q + a * step))(alphas)
@@ -128,11 +134,19 @@ def _descend(
         done = (jnp.max(jnp.abs(gr)) < DESCENT_GTOL) | ~jnp.any(ok)
         return new, it + 1, done
 
-    q, it, _ = jax.lax.while_loop(cond, body, (q0, jnp.asarray(0), jnp.asarray(False)))
-    return q, it
+    return init, body, running
 
 
-@kernel("relax", in_axes=(None, 0, 0, None, None, None))
+def _multipliers_start(layout: TubeLayout, p: ModelParams, q: Array, stiffness: Array) -> Array:
+    """The KKT start of the polish: q with the penalty forces as multiplier estimates."""
+    lam = stiffness * guide_values(layout, p, q)
+    lam_c = stiffness * jnp.maximum(-contact_gaps(layout, p, q), 0.0)
+    return jnp.concatenate([q, lam, lam_c, jnp.zeros(1)])
+
+
+_AT_REST = Load(0.0, 0.0, 0.0)
+
+
 def relax_seed(
     layout: TubeLayout,
     p: ModelParams,
@@ -142,7 +156,9 @@ def relax_seed(
     max_iterations: Array,
     settings: Array,
 ) -> RelaxOutput:
-    """Seed one fold-state combination and relax it (pure; see the module docstring).
+    """Seed one fold-state combination and relax it (pure; see the module docstring): the
+    same three stages as :func:`relax_pool` run for one seed (``vmap`` runs them in
+    lock-step; the tests compare the two).
 
     Parameters
     ----------
@@ -157,14 +173,11 @@ def relax_seed(
     settings : array
         Newton settings of the final KKT solve (:meth:`biplan.solvers.Newton.settings`).
     """
-    _nq, _ng, _nc = sizes(layout)
     q_seed, seed_res = _seed(layout, p, target, mask)
-    q, iterations = _descend(layout, p, q_seed, stiffness, max_iterations)
-    lam = stiffness * guide_values(layout, p, q)
-    lam_c = stiffness * jnp.maximum(-contact_gaps(layout, p, q), 0.0)
-    z0 = jnp.concatenate([q, lam, lam_c, jnp.zeros(1)])
-    load = Load(jnp.asarray(0.0), jnp.asarray(0.0), jnp.asarray(0.0))
-    out = newton_loop(layout, p, z0, load, settings)
+    init, body, running = _descent(layout, p, stiffness, max_iterations)
+    q, iterations, _ = jax.lax.while_loop(running, body, init(q_seed))
+    z0 = _multipliers_start(layout, p, q, stiffness)
+    out = newton_loop(layout, p, z0, Load(*map(jnp.asarray, _AT_REST)), settings)
     return RelaxOutput(
         q_seed=q_seed,
         seed_residual=seed_res,
@@ -174,3 +187,82 @@ def relax_seed(
         status=out.status,
         residual=jnp.max(jnp.abs(out.r)),
     )
+
+
+@kernel("relax_pool", statics=2)
+def relax_pool(
+    layout: TubeLayout,
+    lanes: int,
+    p: ModelParams,
+    target: Array,
+    mask: Array,
+    n_tasks: Array,
+    stiffness: Array,
+    max_iterations: Array,
+    settings: Settings,
+) -> RelaxOutput:
+    """Relax seeds 0 … n_tasks−1 of (T, N + Nc) ``target``/``mask`` (pure; jit-able;
+    ``relax_pool.compiled(layout, lanes)`` is its kernel).
+
+    The kinematic seeds run in blocks of ``lanes`` (every seed takes the same
+    :data:`SEED_ITERATIONS`; blocks past n_tasks are skipped); the descent and the KKT polish
+    run on ``lanes`` refilled lanes each (:func:`biplan.solvers.pool.refill`), so a seed that
+    needs 200 descent iterations occupies one lane while the others move on. Each seed's
+    result equals :func:`relax_seed`'s (same iterations, same order of operations).
+    Rows ≥ n_tasks are padding (status −1).
+    """
+    t_total = target.shape[0]
+    nq = layout.n_coordinates
+    n_blocks = (n_tasks + lanes - 1) // lanes
+    seed_block = jax.vmap(functools.partial(_seed, layout, p))
+
+    def seed_body(b: Array, acc: tuple[Array, Array]) -> tuple[Array, Array]:
+        lo = jnp.minimum(b * lanes, t_total - lanes)
+        t = jax.lax.dynamic_slice_in_dim(target, lo, lanes)
+        m = jax.lax.dynamic_slice_in_dim(mask, lo, lanes)
+        q, r = seed_block(t, m)
+        return (
+            jax.lax.dynamic_update_slice_in_dim(acc[0], q, lo, 0),
+            jax.lax.dynamic_update_slice_in_dim(acc[1], r, lo, 0),
+        )
+
+    q_seed, seed_res = jax.lax.fori_loop(
+        0, n_blocks, seed_body, (jnp.zeros((t_total, nq)), jnp.zeros(t_total))
+    )
+
+    d_init, d_body, d_running = _descent(layout, p, stiffness, max_iterations)
+
+    def descent_step(task: Array, s: tuple) -> tuple:
+        s = d_body(s)
+        return s, d_running(s), (s[0], s[1])
+
+    q_desc, iterations = refill(
+        lanes,
+        n_tasks,
+        t_total,
+        lambda task: d_init(q_seed[task]),
+        descent_step,
+        (q_seed, jnp.zeros(t_total, dtype=jnp.int32)),
+    )
+
+    load = Load(*map(jnp.asarray, _AT_REST))
+    n_init, n_body, n_running, n_finish = newton_machine(
+        layout, p, load, settings, line_search_loop=True, axis_name=LANES
+    )
+
+    def polish_step(task: Array, s: Any) -> tuple:
+        s = n_body(s)
+        fin = n_finish(s)
+        return s, n_running(s), (fin.z, fin.status, jnp.max(jnp.abs(fin.r)))
+
+    n_z = nq + sum(sizes(layout)[1:]) + 1
+    z, status, residual = refill(
+        lanes,
+        n_tasks,
+        t_total,
+        lambda task: n_init(_multipliers_start(layout, p, q_desc[task], stiffness)),
+        polish_step,
+        (jnp.zeros((t_total, n_z)), jnp.full(t_total, -1), jnp.full(t_total, jnp.inf)),
+        axis_name=LANES,
+    )
+    return RelaxOutput(q_seed, seed_res, q_desc, iterations, z, status, residual)

@@ -21,6 +21,7 @@ traced scalar, so one compiled kernel serves every chunk of a sweep.
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from typing import Any, NamedTuple
 
 from biplan._jax import jax, jnp
@@ -29,7 +30,7 @@ from biplan.assembly import Load, TubeLayout
 from biplan.solvers.core import Settings
 from biplan.solvers.newton import newton_machine
 
-__all__ = ["PoolResult", "newton_pool"]
+__all__ = ["PoolResult", "newton_pool", "refill"]
 
 Array = Any
 
@@ -45,6 +46,74 @@ class PoolResult(NamedTuple):
     z: Array
     status: Array
     evals: Array
+
+
+def refill(
+    lanes: int,
+    n_tasks: Array,
+    n_total: int,
+    init_lane: Callable[[Array], Any],
+    step_lane: Callable[[Array, Any], tuple[Any, Array, Any]],
+    out0: Any,
+    axis_name: str | None = None,
+) -> Any:
+    """Run tasks 0 … n_tasks−1 on ``lanes`` refilled ``vmap`` lanes (pure; module docstring).
+
+    Parameters
+    ----------
+    lanes : int
+        Tasks in flight (static).
+    n_tasks : int scalar
+        Number of real tasks (traced); tasks n_tasks … n_total−1 are padding.
+    n_total : int
+        Length of the task arrays (static).
+    init_lane : callable
+        ``init_lane(task) -> state`` of one lane (vmapped).
+    step_lane : callable
+        ``step_lane(task, state) -> (state, running, result)``: one iteration of a lane;
+        ``result`` (a pytree of per-lane values) is written for a lane that stops running.
+    out0 : pytree
+        Output arrays with a leading task axis (n_total, …); row t receives task t's result.
+    axis_name : str, optional
+        Name of the lane axis inside ``step_lane``.
+
+    Returns
+    -------
+    pytree
+        ``out0`` with the rows of the finished tasks written.
+    """
+
+    def select(mask: Array, a: Any, b: Any) -> Any:
+        return jax.tree_util.tree_map(
+            lambda x, y: jnp.where(mask.reshape((-1,) + (1,) * (x.ndim - 1)), x, y), a, b
+        )
+
+    lane_ids = jnp.arange(lanes)
+    tasks0 = jnp.where(lane_ids < n_tasks, lane_ids, -1)
+    state0 = jax.vmap(init_lane)(jnp.clip(tasks0, 0, n_total - 1))
+
+    def cond(c: tuple) -> Array:
+        return jnp.any(c[0] >= 0)
+
+    def body(c: tuple) -> tuple:
+        tasks, state, nxt, out = c
+        active = tasks >= 0
+        safe = jnp.clip(tasks, 0, n_total - 1)
+        state, running, result = jax.vmap(step_lane, axis_name=axis_name)(safe, state)
+        done = active & ~running
+        idx = jnp.where(done, tasks, n_total)  # out of range: dropped
+        out = jax.tree_util.tree_map(
+            lambda o, r: o.at[idx].set(r.astype(o.dtype), mode="drop"), out, result
+        )
+        new = nxt + jnp.cumsum(done) - 1
+        take = done & (new < n_tasks)
+        tasks = jnp.where(take, new, jnp.where(done, -1, tasks))
+        fresh = jax.vmap(init_lane)(jnp.clip(new, 0, n_total - 1))
+        state = select(take, fresh, state)
+        return tasks, state, nxt + jnp.sum(done), out
+
+    nxt0 = jnp.minimum(jnp.asarray(lanes), n_tasks)
+    return jax.lax.while_loop(cond, body, (tasks0, state0, nxt0, out0))[3]
 
 
 @kernel("newton_pool", statics=2)
@@ -92,44 +161,12 @@ def newton_pool(
     def step_lane(task: Array, s: Any) -> tuple:
         _, body, running, finish = parts(task)
         s = body(s)
-        return s, running(s), finish(s)
+        fin = finish(s)
+        return s, running(s), PoolResult(fin.z, fin.status, fin.evals)
 
-    def select(mask: Array, a: Any, b: Any) -> Any:
-        return jax.tree_util.tree_map(
-            lambda x, y: jnp.where(mask.reshape((-1,) + (1,) * (x.ndim - 1)), x, y), a, b
-        )
-
-    lane_ids = jnp.arange(lanes)
-    tasks0 = jnp.where(lane_ids < n_tasks, lane_ids, -1)
-    state0 = jax.vmap(init_lane)(jnp.clip(tasks0, 0, n_total - 1))
     out0 = PoolResult(
         z=jnp.asarray(z0),
         status=jnp.full(n_total, -1),
         evals=jnp.zeros(n_total, dtype=jnp.int32),
     )
-
-    def cond(c: tuple) -> Array:
-        return jnp.any(c[0] >= 0)
-
-    def body(c: tuple) -> tuple:
-        tasks, state, nxt, out = c
-        active = tasks >= 0
-        safe = jnp.clip(tasks, 0, n_total - 1)
-        state, running, fin = jax.vmap(step_lane, axis_name=LANES)(safe, state)
-        done = active & ~running
-        idx = jnp.where(done, tasks, n_total)  # out of range: dropped
-        out = PoolResult(
-            z=out.z.at[idx].set(fin.z, mode="drop"),
-            status=out.status.at[idx].set(fin.status, mode="drop"),
-            evals=out.evals.at[idx].set(fin.evals.astype(jnp.int32), mode="drop"),
-        )
-        new = nxt + jnp.cumsum(done) - 1
-        take = done & (new < n_tasks)
-        tasks = jnp.where(take, new, jnp.where(done, -1, tasks))
-        fresh = jax.vmap(init_lane)(jnp.clip(new, 0, n_total - 1))
-        state = select(take, fresh, state)
-        return tasks, state, nxt + jnp.sum(done), out
-
-    nxt0 = jnp.minimum(jnp.asarray(lanes), n_tasks)
-    _, _, _, out = jax.lax.while_loop(cond, body, (tasks0, state0, nxt0, out0))
-    return out
+    return refill(lanes, n_tasks, n_total, init_lane, step_lane, out0, axis_name=LANES)

@@ -1,0 +1,138 @@
+"""State searches: the relaxation pool, exhaustive vs neighbourhood, resume, size refusal."""
+
+from __future__ import annotations
+
+import functools
+
+import numpy as np
+import pytest
+
+import biplan
+from biplan._jax import jax, jnp
+from biplan.analysis import seeding
+from biplan.analysis.labels import bistable_folds
+from biplan.analysis.states import Enumeration, Search, enumerate_states
+from biplan.assembly import kernels
+from biplan.io.sweepstore import ChunkStore
+from biplan.solvers._relaxkernel import relax_pool, relax_seed
+
+#: Small chunks for the two-module tube (8 seeds → two chunks of four; one compilation).
+SMALL = Enumeration(chunk=4, lanes=2)
+
+
+@pytest.fixture(scope="module")
+def model2fb() -> biplan.Model:
+    return biplan.Model(biplan.designs.fully_bistable(n_modules=2))
+
+
+def _catalogue_key(cat):  # type: ignore[no-untyped-def]
+    return [(s.name, s.bits, s.seeds) for s in cat.states]
+
+
+def test_relaxation_pool_equals_the_lock_step_relaxation(model2fb):
+    """Refilled lanes (relax_pool) against ``vmap`` of the one-seed relax_seed (lock-step)."""
+    folds = bistable_folds(model2fb.tube)
+    bits = seeding.seed_bits(np.arange(8), len(folds))
+    target, mask = seeding.seed_targets(model2fb, folds, bits)
+    args = (
+        jnp.asarray(SMALL.penalty_stiffness),
+        jnp.asarray(SMALL.max_iterations),
+        SMALL.newton.settings(),
+    )
+    lock = jax.jit(
+        jax.vmap(
+            functools.partial(relax_seed, model2fb.layout), in_axes=(None, 0, 0, None, None, None)
+        )
+    )(model2fb.params, jnp.asarray(target), jnp.asarray(mask), *args)
+    z, status, residual = seeding.relax_seeds(model2fb, target, mask, SMALL)
+    np.testing.assert_array_equal(status, np.asarray(lock.status))
+    np.testing.assert_allclose(z, np.asarray(lock.z), atol=1e-7)
+    assert np.all(residual < SMALL.newton.atol)
+    # padding rows of a chunk are not computed: status −1
+    fn = relax_pool.compiled(model2fb.layout, SMALL.lanes)
+    out = fn(model2fb.params, jnp.asarray(target[:4]), jnp.asarray(mask[:4]), 3, *args)
+    assert list(np.asarray(out.status)) == [0, 0, 0, -1]
+
+
+def test_fully_bistable_single_module_has_its_two_wells():
+    """One module, one bistable helical fold (no circular fold): closed and open, by hand."""
+    model = biplan.Model(biplan.designs.fully_bistable(n_modules=1))
+    for search in Search:
+        cat = enumerate_states(model, SMALL, search=search)
+        assert [s.label for s in cat.states] == ["0", "1"]
+        assert all(s.matches_seed for s in cat.seeds)
+        assert cat.state("0").energy == pytest.approx(0.0, abs=1e-10)
+        assert all(s.min_eigenvalue > 0.0 for s in cat.states)
+
+
+def test_neighbourhood_search_finds_the_exhaustive_states(model2fb, model4):
+    for model, settings in ((model2fb, SMALL), (model4, Enumeration())):
+        full = enumerate_states(model, settings)
+        near = enumerate_states(model, settings, search=Search.NEIGHBOURHOOD)
+        assert [s.name for s in near.states] == [s.name for s in full.states]
+        for a, b in zip(full.states, near.states, strict=True):
+            assert np.max(np.abs(a.q - b.q)) < settings.duplicate_tolerance
+        assert len(near.seeds) <= len(full.seeds)
+    # two modules: three bistable folds, six of the eight fold states are stable
+    assert [s.label for s in enumerate_states(model2fb, SMALL).states] == [
+        "0",
+        "1",
+        "2",
+        "3",
+        "6",
+        "7",
+    ]
+    assert len(full) == 66  # four modules
+
+
+def test_every_state_is_a_stable_equilibrium_recomputed(model2fb):
+    cat = enumerate_states(model2fb, SMALL, search=Search.NEIGHBOURHOOD)
+    residual = kernels(model2fb.layout).residual
+    for s in cat.states:
+        r = np.asarray(residual(model2fb.params, s.z, biplan.Load.of_force(0.0)))
+        assert np.max(np.abs(r)) < 1e-7, s.name
+        sol = biplan.solve_equilibrium(model2fb, None, s.z)
+        assert biplan.classify(model2fb, sol).verdict is biplan.Verdict.STABLE, s.name
+
+
+class _Killed(Exception):
+    pass
+
+
+class _DiesAfter(ChunkStore):
+    """A chunk store whose run is killed after ``left`` saved chunks."""
+
+    left = 1
+
+    def save(self, chunk, result):  # type: ignore[no-untyped-def]
+        super().save(chunk, result)
+        type(self).left -= 1
+        if type(self).left == 0:
+            raise _Killed
+
+
+def test_resumed_enumeration_equals_an_uninterrupted_one(model2fb, tmp_path):
+    whole = enumerate_states(model2fb, SMALL)
+    description = {"design": "fully bistable, 2 modules", "chunk": SMALL.chunk}
+    with pytest.raises(_Killed):
+        enumerate_states(model2fb, SMALL, sink=_DiesAfter(tmp_path, description, 2, False))
+    store = ChunkStore(tmp_path, description, 2, resume=True)
+    assert store.reused == 1
+    resumed = enumerate_states(model2fb, SMALL, sink=store)
+    assert _catalogue_key(resumed) == _catalogue_key(whole)
+    for a, b in zip(whole.states, resumed.states, strict=True):
+        np.testing.assert_array_equal(a.z, b.z)
+        assert a.energy == b.energy
+
+
+def test_a_large_exhaustive_search_is_refused_with_its_cost_before_any_work(monkeypatch):
+    model = biplan.Model(biplan.designs.fully_bistable(n_modules=7))  # 13 folds
+    monkeypatch.setattr(seeding, "evaluate", _forbidden)
+    with pytest.raises(biplan.ConfigError, match=r"8,192 seeds.*confirm.*about 2 min"):
+        enumerate_states(model)
+    with pytest.raises(biplan.ConfigError, match="search"):
+        enumerate_states(model, search="exhaustive")  # type: ignore[arg-type]
+
+
+def _forbidden(*args, **kwargs):  # type: ignore[no-untyped-def]
+    raise AssertionError("work started before the request was checked")
