@@ -66,6 +66,7 @@ def _write(tmp_path: Path, text: str) -> Path:
     [
         ("semi_bistable.toml", biplan.designs.semi_bistable),
         ("fully_bistable_4.toml", biplan.designs.fully_bistable),
+        ("fully_bistable_8.toml", lambda: biplan.designs.fully_bistable(n_modules=8)),
     ],
 )
 def test_example_equals_design(filename: str, design: object) -> None:

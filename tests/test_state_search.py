@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import functools
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -136,3 +137,67 @@ def test_a_large_exhaustive_search_is_refused_with_its_cost_before_any_work(monk
 
 def _forbidden(*args, **kwargs):  # type: ignore[no-untyped-def]
     raise AssertionError("work started before the request was checked")
+
+
+def test_dask_workers_give_the_states_of_one_process_even_when_one_dies():
+    """Five modules (512 seeds, 4 chunks) on a 2-worker LocalCluster; one worker process is
+    killed after the first chunk arrives: Dask runs its chunks again, none is lost or counted
+    twice, and the states equal the in-process search."""
+    import os
+    import signal
+
+    from dask.distributed import Client, LocalCluster
+
+    from biplan.analysis.scaleout import dask_runner
+
+    model = biplan.Model(biplan.designs.fully_bistable(n_modules=5))
+    alone = enumerate_states(model)
+    cluster = LocalCluster(
+        n_workers=2, threads_per_worker=1, processes=True, host="127.0.0.1", dashboard_address=None
+    )
+    try:
+        with Client(cluster) as client:
+            pids = list(client.run(os.getpid).values())
+        killed: list[int] = []
+        done: list[int] = []
+
+        def progress(k: int, n: int) -> None:
+            done.append(k)
+            if not killed:
+                os.kill(pids[0], signal.SIGKILL)
+                killed.append(pids[0])
+
+        spread = enumerate_states(
+            model, progress=progress, runner=dask_runner(cluster.scheduler_address)
+        )
+    finally:
+        cluster.close()
+    assert killed and done[-1] == 512 and len(done) == 4
+    assert _catalogue_key(spread) == _catalogue_key(alone)
+    for a, b in zip(alone.states, spread.states, strict=True):
+        np.testing.assert_allclose(a.z, b.z, rtol=0, atol=1e-12)
+
+
+def test_states_command_checks_the_search_request_first(tmp_path, monkeypatch, capsys):
+    from biplan.cli.main import EXIT_BIPLAN_ERROR, main
+
+    monkeypatch.setattr(seeding, "evaluate", _forbidden)
+    config = "examples/fully_bistable_4.toml"
+    big = tmp_path / "fb7.toml"
+    text = Path(config).read_text(encoding="utf-8").replace("n_modules = 4", "n_modules = 7")
+    big.write_text(text, encoding="utf-8")
+    out = str(tmp_path / "out")
+    cases = [
+        ([config, "--search", "everything"], "invalid --search = 'everything'"),
+        ([config, "--search", "neighbourhood", "--resume"], "invalid --resume"),
+        ([config, "--search", "neighbourhood", "--workers", "2"], "invalid --workers"),
+        ([config, "--workers", "0"], "invalid --workers = 0"),
+        ([str(big)], "8,192 seeds"),
+    ]
+    for args, message in cases:
+        with pytest.raises(SystemExit) as info:
+            main(["states", *args, "--out", out])
+        err = capsys.readouterr().err
+        assert info.value.code == EXIT_BIPLAN_ERROR, (args, err)
+        lines = [line for line in err.splitlines() if line.strip()]
+        assert len(lines) == 1 and message in lines[0], (args, err)

@@ -7,6 +7,7 @@ semi-bistable layout of ``model6``); the grids stay at b < 0.578 where the layou
 
 from __future__ import annotations
 
+import functools
 import time
 from dataclasses import dataclass
 from typing import Any
@@ -218,10 +219,10 @@ def test_map_point_equals_single_run(design, design_map) -> None:
 
 # --- resumable chunks -------------------------------------------------------------------------
 def _counting(calls: list[int]) -> Any:
-    def run(design, grid, evaluator, todo, batch):  # type: ignore[no-untyped-def]
+    def run(task, todo):  # type: ignore[no-untyped-def]
         for cid, idx in todo:
             calls.append(cid)
-            yield cid, evaluate_chunk(design, grid, evaluator, idx, batch)
+            yield cid, task(idx)
 
     return run
 
@@ -298,7 +299,8 @@ def test_thread_runner_stops_when_the_consumer_stops() -> None:
     design = biplan.designs.semi_bistable()
     g = Grid.of(C=np.linspace(1.0, 2.0, 40))
     todo = [(k, np.arange(k, k + 1)) for k in range(40)]
-    it = thread_runner(1)(design, g, _Counting(), todo, 1)
+    task = functools.partial(evaluate_chunk, design, g, _Counting(), batch=1)
+    it = thread_runner(1)(task, todo)
     next(it), next(it)
     it.close()
     assert len(calls) < 40

@@ -1,11 +1,14 @@
 """Running the chunks of a sweep on a Dask cluster or a process pool.
 
-A runner is ``runner(design, grid, evaluator, todo, batch)`` yielding ``(chunk, result)`` as
-chunks finish (any order); :func:`biplan.analysis.sweeps.sweep` streams each result to its
-sink. Workers receive only picklable descriptions (the frozen :class:`~biplan.Tube`, the grid,
-the evaluator) and run :func:`~biplan.analysis.sweeps.evaluate_chunk`; each worker compiles its
-kernels once per layout (module-level caches) and shares the persistent JAX compilation cache
-that biplan configures when its core is first imported (:func:`biplan._jax.configure`).
+A runner is ``runner(task, todo)`` yielding ``(chunk, result)`` as chunks finish (any order):
+``todo`` lists (chunk id, indices) and ``task(indices)`` computes one chunk's result (a dict of
+arrays). :func:`biplan.analysis.sweeps.sweep` and the exhaustive state search
+(:func:`biplan.analysis.seeding.exhaustive`) stream each result to their sink. A task is a
+picklable partial of a module-level function over picklable descriptions (the frozen
+:class:`~biplan.Tube`, the grid, the evaluator, the search settings): a worker builds its
+model from them, compiles its kernels once per layout (module-level caches) and shares the
+persistent JAX compilation cache that biplan configures when its core is first imported
+(:func:`biplan._jax.configure`). Dask reruns the chunks of a worker that dies on another one.
 
 * :func:`dask_runner` — a ``LocalCluster`` on 127.0.0.1 (processes, one thread each) by
   default, or ``Client(address)`` of a user's scheduler; falls back to :func:`process_runner`
@@ -26,18 +29,18 @@ from typing import Any
 import numpy as np
 
 from biplan._errors import ConfigError, check_integer
-from biplan.analysis.sweeps import Evaluator, Grid, evaluate_chunk
-from biplan.geometry import Tube
 
 __all__ = ["Runner", "available_cores", "dask_runner", "process_runner", "thread_runner"]
 
 Todo = list[tuple[int, np.ndarray]]
-Runner = Callable[[Tube, Grid, Evaluator, Todo, int], Iterator[tuple[int, dict[str, np.ndarray]]]]
+Task = Callable[[np.ndarray], dict[str, np.ndarray]]
+Runner = Callable[[Task, Todo], Iterator[tuple[int, dict[str, np.ndarray]]]]
 
 
-def _warm(design: Tube, grid: Grid, evaluator: Evaluator, batch: int) -> bool:
-    """Evaluate one point (compiles the worker's kernels; cheap once cached)."""
-    evaluate_chunk(design, grid, evaluator, np.arange(1), batch)
+def _warm(task: Task, indices: np.ndarray) -> bool:
+    """Evaluate the first index of a chunk (compiles the worker's kernels; cheap once
+    cached)."""
+    task(indices[:1])
     return True
 
 
@@ -75,19 +78,14 @@ def available_cores() -> int:
     return len(_available_cores())
 
 
-def _on_executor(
-    pool: Any, design: Tube, grid: Grid, evaluator: Evaluator, todo: Todo, batch: int
-) -> Iterator[tuple[int, dict[str, np.ndarray]]]:
+def _on_executor(pool: Any, task: Task, todo: Todo) -> Iterator[tuple[int, dict[str, np.ndarray]]]:
     """Submit every chunk of ``todo`` to the ``concurrent.futures`` executor ``pool`` and
     yield results as they finish; on exit (also when the caller stops iterating) the chunks
     not yet started are cancelled and the pool is shut down."""
     from concurrent.futures import as_completed
 
     try:
-        futures = {
-            pool.submit(evaluate_chunk, design, grid, evaluator, idx, batch): cid
-            for cid, idx in todo
-        }
+        futures = {pool.submit(task, idx): cid for cid, idx in todo}
         for fut in as_completed(futures):
             yield futures[fut], fut.result()
     finally:
@@ -105,17 +103,15 @@ def thread_runner(n_threads: int = 2) -> Runner:
     """
     check_integer("threads", n_threads, low=1)
 
-    def run(
-        design: Tube, grid: Grid, evaluator: Evaluator, todo: Todo, batch: int
-    ) -> Iterator[tuple[int, dict[str, np.ndarray]]]:
+    def run(task: Task, todo: Todo) -> Iterator[tuple[int, dict[str, np.ndarray]]]:
         from concurrent.futures import ThreadPoolExecutor
 
         if not todo:
             return
         cid, idx = todo[0]
-        yield cid, evaluate_chunk(design, grid, evaluator, idx, batch)
+        yield cid, task(idx)
         pool = ThreadPoolExecutor(n_threads, thread_name_prefix="biplan-sweep")
-        yield from _on_executor(pool, design, grid, evaluator, todo[1:], batch)
+        yield from _on_executor(pool, task, todo[1:])
 
     return run
 
@@ -124,16 +120,14 @@ def process_runner(n_workers: int = 2) -> Runner:
     """Run chunks in a ``ProcessPoolExecutor`` of ``n_workers`` processes (spawned)."""
     check_integer("workers", n_workers, low=1)
 
-    def run(
-        design: Tube, grid: Grid, evaluator: Evaluator, todo: Todo, batch: int
-    ) -> Iterator[tuple[int, dict[str, np.ndarray]]]:
+    def run(task: Task, todo: Todo) -> Iterator[tuple[int, dict[str, np.ndarray]]]:
         import multiprocessing as mp
         from concurrent.futures import ProcessPoolExecutor
 
         if not todo:
             return
         pool = ProcessPoolExecutor(n_workers, mp_context=mp.get_context("spawn"))
-        yield from _on_executor(pool, design, grid, evaluator, todo, batch)
+        yield from _on_executor(pool, task, todo)
 
     return run
 
@@ -171,9 +165,7 @@ def dask_runner(
             raise ConfigError("--scheduler", address, "usable only with dask installed") from None
         return process_runner(n_workers)
 
-    def run(
-        design: Tube, grid: Grid, evaluator: Evaluator, todo: Todo, batch: int
-    ) -> Iterator[tuple[int, dict[str, np.ndarray]]]:
+    def run(task: Task, todo: Todo) -> Iterator[tuple[int, dict[str, np.ndarray]]]:
         if not todo:
             return
         cluster: Any = None
@@ -195,13 +187,10 @@ def dask_runner(
             client = Client(address)
         try:
             if warm_up:
-                client.run(_warm, design, grid, evaluator, batch)
+                client.run(_warm, task, todo[0][1])
             if on_ready is not None:
                 on_ready()
-            futures = {
-                client.submit(evaluate_chunk, design, grid, evaluator, idx, batch, pure=False): cid
-                for cid, idx in todo
-            }
+            futures = {client.submit(task, idx, pure=False): cid for cid, idx in todo}
             for fut in as_completed(list(futures)):
                 yield futures[fut], fut.result()
         finally:

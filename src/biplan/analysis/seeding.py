@@ -5,9 +5,11 @@ A seed is a bit vector over the bistable folds (free end first,
 open well. Seed i has the bits of i written in binary with the first fold as the most
 significant bit (the order of ``itertools.product((0, 1), repeat=n)``).
 
-* :attr:`Search.EXHAUSTIVE` relaxes all 2ⁿ seeds, in chunks of ``Enumeration.chunk``; each
-  finished chunk can go to a :class:`~biplan.analysis.sweeps.ChunkSink` (the sweep store), so
-  a killed run resumes at the first unfinished chunk.
+* :attr:`Search.EXHAUSTIVE` relaxes all 2ⁿ seeds, in chunks of ``Enumeration.chunk``, in
+  this process or on a runner of :mod:`biplan.analysis.scaleout` (a Dask cluster: the chunks
+  of a worker that dies are run again elsewhere); each finished chunk can go to a
+  :class:`~biplan.analysis.sweeps.ChunkSink` (the sweep store), so a killed run resumes at the
+  first unfinished chunk.
 * :attr:`Search.NEIGHBOURHOOD` starts from the all-closed seed and, round after round,
   relaxes the Hamming-1 neighbours (one fold flipped) of the fold states reached so far that
   have not been tried, until a round finds nothing new. It finds every state connected to
@@ -22,15 +24,16 @@ does not depend on the search that tried it.
 from __future__ import annotations
 
 import enum
+import functools
 from collections.abc import Callable
-from typing import TYPE_CHECKING
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
 from biplan._errors import ConfigError
 from biplan._jax import jnp
 from biplan.assembly import Load, Model
-from biplan.geometry import FoldRef
+from biplan.geometry import FoldRef, Tube
 from biplan.solvers._relaxkernel import relax_pool
 from biplan.solvers.core import Status
 from biplan.solvers.observe import observe_batch
@@ -44,6 +47,8 @@ __all__ = [
     "SECONDS_PER_SEED",
     "Search",
     "cost_estimate",
+    "evaluate",
+    "evaluate_chunk",
     "exhaustive",
     "fold_vector_index",
     "neighbourhood",
@@ -191,28 +196,59 @@ def _concatenate(parts: list[dict[str, np.ndarray]]) -> dict[str, np.ndarray]:
     return {k: np.concatenate([p[k] for p in parts]) for k in parts[0]}
 
 
+@functools.lru_cache(maxsize=4)
+def _model(tube: Tube) -> Model:
+    return Model(tube)
+
+
+def evaluate_chunk(tube: Tube, settings: Enumeration, indices: np.ndarray) -> dict[str, np.ndarray]:
+    """:func:`evaluate` of seeds ``indices`` of ``tube``'s bistable folds: what a worker runs
+    (picklable arguments; the model is built once per process)."""
+    from biplan.analysis.labels import bistable_folds
+
+    model = _model(tube)
+    return evaluate(model, bistable_folds(tube), indices, settings)
+
+
 def exhaustive(
     model: Model,
     folds: tuple[FoldRef, ...],
     settings: Enumeration,
     sink: ChunkSink | None = None,
     progress: Progress | None = None,
+    runner: Any = None,
 ) -> dict[str, np.ndarray]:
-    """Every seed, chunk by chunk (:func:`evaluate`); a chunk already in ``sink`` is loaded
-    instead of computed, and each computed chunk is saved to it."""
+    """Every seed, chunk by chunk (:func:`evaluate`): chunks already in ``sink`` are loaded,
+    the others computed by ``runner`` (:mod:`biplan.analysis.scaleout`; default this process)
+    and saved to ``sink`` as they finish; the result is in seed order either way."""
+    from biplan.analysis.sweeps import run_local
+
     total = 2 ** len(folds)
-    parts = []
-    for c, lo in enumerate(range(0, total, settings.chunk)):
-        hi = min(lo + settings.chunk, total)
+    chunks = [
+        np.arange(lo, min(lo + settings.chunk, total)) for lo in range(0, total, settings.chunk)
+    ]
+    results: dict[int, dict[str, np.ndarray]] = {}
+    for c in range(len(chunks)):
         if sink is not None and sink.done(c):
-            parts.append(sink.load(c))
-        else:
-            parts.append(evaluate(model, folds, np.arange(lo, hi), settings))
-            if sink is not None:
-                sink.save(c, parts[-1])
+            results[c] = sink.load(c)
+    done = sum(len(chunks[c]) for c in results)
+    if progress is not None and results:
+        progress(done, total)
+    todo = [(c, idx) for c, idx in enumerate(chunks) if c not in results]
+    if runner is None:
+        task = functools.partial(evaluate, model, folds, settings=settings)
+        run: Any = run_local
+    else:
+        task = functools.partial(evaluate_chunk, model.tube, settings)
+        run = runner
+    for c, res in run(task, todo):
+        results[c] = res
+        if sink is not None:
+            sink.save(c, res)
+        done += len(chunks[c])
         if progress is not None:
-            progress(hi, total)
-    return _concatenate(parts)
+            progress(done, total)
+    return _concatenate([results[c] for c in range(len(chunks))])
 
 
 def neighbourhood(

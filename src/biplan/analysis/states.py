@@ -38,6 +38,7 @@ from biplan.solvers.observe import STABILITY_TOL
 
 if TYPE_CHECKING:
     from biplan.analysis.catalogue import StateCatalogue
+    from biplan.analysis.scaleout import Runner
     from biplan.analysis.sweeps import ChunkSink
 
 __all__ = [
@@ -213,6 +214,7 @@ def enumerate_states(
     search: Search = Search.EXHAUSTIVE,
     sink: ChunkSink | None = None,
     confirm: bool = False,
+    runner: Runner | None = None,
 ) -> StateCatalogue:
     """The stable states reached from fold-state seeds (SI Sec. transitions).
 
@@ -232,6 +234,10 @@ def enumerate_states(
     confirm : bool
         Run an exhaustive search of more than :data:`~biplan.analysis.seeding.CONFIRM_SEEDS`
         seeds (otherwise refused with a cost estimate, before any work).
+    runner : Runner, optional
+        Exhaustive search: where the chunks run (:mod:`biplan.analysis.scaleout`, e.g.
+        ``dask_runner()`` for a local cluster or ``dask_runner("tcp://host:8786")``);
+        default this process. The states are the same either way.
 
     Returns
     -------
@@ -249,7 +255,7 @@ def enumerate_states(
     seeding.check_size(len(folds), model.tube.n_modules, search, confirm, MAX_FOLDS)
     start = time.perf_counter()
     if search is Search.EXHAUSTIVE:
-        res = seeding.exhaustive(model, folds, settings, sink, progress)
+        res = seeding.exhaustive(model, folds, settings, sink, progress, runner)
     else:
         res = seeding.neighbourhood(model, folds, settings, progress)
     z = res["z"]

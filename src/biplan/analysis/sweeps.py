@@ -19,6 +19,7 @@ goes on.
 
 from __future__ import annotations
 
+import functools
 from collections.abc import Callable, Iterable, Mapping, Sequence
 from typing import Any, Protocol
 
@@ -42,6 +43,7 @@ __all__ = [
     "chunk_indices",
     "evaluate_chunk",
     "parse_axis",
+    "run_local",
     "sweep",
 ]
 
@@ -165,11 +167,13 @@ def evaluate_chunk(
     return result
 
 
-def _run_local(
-    design: Tube, grid: Grid, evaluator: Evaluator, todo: list[tuple[int, np.ndarray]], batch: int
+def run_local(
+    task: Callable[[np.ndarray], dict[str, np.ndarray]], todo: list[tuple[int, np.ndarray]]
 ) -> Iterable[tuple[int, dict[str, np.ndarray]]]:
+    """The runner of this process: chunks one after the other
+    (:mod:`biplan.analysis.scaleout` has the parallel ones)."""
     for cid, idx in todo:
-        yield cid, evaluate_chunk(design, grid, evaluator, idx, batch)
+        yield cid, task(idx)
 
 
 def assemble(
@@ -256,8 +260,8 @@ def sweep(
     sink : ChunkSink, optional
         Stream finished chunks to it; chunks it already holds are loaded, not recomputed.
     runner : callable, optional
-        ``runner(design, grid, quantity, todo, chunk_size)`` yielding ``(chunk, result)`` in any
-        order (e.g. :func:`biplan.analysis.scaleout.dask_runner`); default in this process.
+        ``runner(task, todo)`` yielding ``(chunk, result)`` in any order
+        (:mod:`biplan.analysis.scaleout`, e.g. ``dask_runner``); default in this process.
     progress : callable, optional
         Called as ``progress(points_done, n_points)`` after every chunk.
     chunks_to_run : sequence of int, optional
@@ -283,8 +287,9 @@ def sweep(
     done_points = sum(len(chunks[c]) for c in results)
     if progress is not None:
         progress(done_points, grid.size)
-    run = runner or _run_local
-    for cid, res in run(design, grid, quantity, todo, chunk_size):
+    run = runner or run_local
+    task = functools.partial(evaluate_chunk, design, grid, quantity, batch=chunk_size)
+    for cid, res in run(task, todo):
         results[cid] = res
         if sink is not None:
             sink.save(cid, res)

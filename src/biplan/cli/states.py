@@ -34,7 +34,7 @@ from typing import TYPE_CHECKING, Annotated, Any
 import typer
 from rich.console import Console
 
-from biplan._errors import ConfigError
+from biplan._errors import ConfigError, check_integer
 from biplan.cli._checks import options_named, output_directory
 
 if TYPE_CHECKING:
@@ -216,11 +216,19 @@ def states(
     resume: Annotated[
         bool, typer.Option("--resume", help="Continue a killed exhaustive search in --out.")
     ] = False,
+    workers: Annotated[
+        int, typer.Option(help="Exhaustive search: Dask worker processes (1: in this process).")
+    ] = 1,
+    scheduler: Annotated[
+        str | None,
+        typer.Option(help="Exhaustive search: Dask scheduler address of an existing cluster."),
+    ] = None,
     quiet: Annotated[bool, typer.Option("--quiet", "-q", help="No progress or summary.")] = False,
 ) -> None:
     """Enumerate the stable states of a tube; write states.csv/.nc, transitions.graphml and
     the transition, endpoint-space and distribution figures. An exhaustive search streams
-    its finished chunks of seeds to --out/seeds/ (``--resume`` continues a killed run)."""
+    its finished chunks of seeds to --out/seeds/ (``--resume`` continues a killed run) and runs
+    them on a Dask cluster with ``--workers N`` (a local one) or ``--scheduler ADDRESS``."""
     import biplan
     from biplan.analysis.seeding import Search
     from biplan.analysis.transitions import transition_graph
@@ -230,13 +238,27 @@ def states(
     except ValueError:
         valid = " or ".join(repr(m.value) for m in Search)
         raise ConfigError("--search", search, valid) from None
-    if resume and method is not Search.EXHAUSTIVE:
-        raise ConfigError("--resume", "with --search neighbourhood", "an exhaustive search")
+    check_integer("--workers", workers, low=1)
+    if method is not Search.EXHAUSTIVE:
+        for flag, used in (
+            ("--resume", resume),
+            ("--workers", workers > 1),
+            ("--scheduler", scheduler),
+        ):
+            if used:
+                raise ConfigError(flag, "with --search neighbourhood", "an exhaustive search")
     output_directory(out, files=STATE_FILES)
     model = biplan.Model(biplan.load_config(config))
     sink = _seed_store(model, out, method, yes, resume)
+    runner = None
+    if scheduler is not None or workers > 1:
+        from biplan.analysis.scaleout import dask_runner
+
+        runner = dask_runner(scheduler, workers)
     try:
-        catalogue = _progress_enumeration(model, quiet, search=method, sink=sink, confirm=yes)
+        catalogue = _progress_enumeration(
+            model, quiet, search=method, sink=sink, confirm=yes, runner=runner
+        )
     except KeyboardInterrupt:
         kept = len(sink.finished) if sink is not None else 0
         where = f"{kept} finished chunks kept in {out}/seeds; rerun with --resume" if sink else ""

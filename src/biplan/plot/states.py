@@ -1,7 +1,10 @@
 """Figures of the stable-state analysis (main Fig. 4 A–C, SI distributions figure).
 
 * :func:`transition_diagram` — the state-transition graph, states in columns by number of open
-  folds, Hamming-1 edges in grey and chosen pathways highlighted;
+  folds, Hamming-1 edges in grey and chosen pathways highlighted; a graph whose tallest column
+  holds more than :data:`MAX_NAMED_ROWS` states (thousands of states of a long tube) is drawn
+  aggregated: each column a density of small dots spread over a height proportional to its
+  size, its count on top, edges faint, and names only on the pathways' states;
 * :func:`endpoint_space` — the 3D scatter of the states in (u_z/l₀, u_r/l₀, Θ), coloured by
   slope branch (open helical folds); the Θ axis spans Θ's range ([0, 1], or [−1, 1] when a
   state tilts the other way) and the title states what Θ = 1 is (max |θ| in rad); states are
@@ -31,6 +34,10 @@ __all__ = ["distributions", "endpoint_space", "readable_labels", "transition_dia
 ROW_HEIGHT = 0.165
 #: Gap [px] :func:`readable_labels` keeps between two names.
 LABEL_GAP = 2.0
+#: Tallest column of :func:`transition_diagram` drawn with every state named (≈ 17 in).
+MAX_NAMED_ROWS = 100
+#: Most names :func:`endpoint_space` tries to place (extremes first, then by energy).
+MAX_NAME_CANDIDATES = 150
 
 #: Okabe–Ito colours for pathways and slope branches.
 PALETTE = ("#0072B2", "#D55E00", "#009E73", "#CC79A7", "#E69F00", "#56B4E9", "#F0E442", "#000000")
@@ -59,7 +66,8 @@ def transition_diagram(
     """Draw the state-transition graph with pathways highlighted.
 
     A new figure is 7 in wide and tall enough for its tallest column (``ROW_HEIGHT`` inches
-    per state, at least 4.2 in).
+    per state, at least 4.2 in). Above :data:`MAX_NAMED_ROWS` states in a column it is drawn
+    aggregated (module docstring), 7 × 6 in.
 
     Parameters
     ----------
@@ -71,18 +79,60 @@ def transition_diagram(
     pos = _positions(graph)
     # a column of n states needs ~ROW_HEIGHT inches per state to keep labels apart
     tallest = max((round(2 * abs(y)) + 1 for _, y in pos.values()), default=1)
-    ax = _new_axes(ax, (7.0, max(4.2, ROW_HEIGHT * tallest + 0.9)))
-    for u, v in graph.edges:
-        (x0, y0), (x1, y1) = pos[u], pos[v]
-        ax.plot([x0, x1], [y0, y1], color="0.8", lw=0.6, zorder=1)
+    aggregate = tallest > MAX_NAMED_ROWS
+    if aggregate:
+        pos = {n: (x, y / tallest) for n, (x, y) in pos.items()}
+    size = (7.0, 6.0) if aggregate else (7.0, max(4.2, ROW_HEIGHT * tallest + 0.9))
+    ax = _new_axes(ax, size)
+    n_edges = graph.number_of_edges()
+    edge_alpha = min(1.0, 400.0 / max(n_edges, 1)) if aggregate else 1.0
+    from matplotlib.collections import LineCollection
+
+    segments = [(pos[u], pos[v]) for u, v in graph.edges]
+    ax.add_collection(
+        LineCollection(
+            segments,
+            colors="0.8" if not aggregate else "0.55",
+            linewidths=0.6 if not aggregate else 0.3,
+            alpha=edge_alpha,
+            zorder=1,
+            rasterized=aggregate,
+        )
+    )
     names = list(names) if names is not None else [f"p{k + 1}" for k in range(len(pathways))]
     for k, path in enumerate(pathways):
         xy = np.array([pos[n] for n in path])
         color = PALETTE[k % len(PALETTE)]
         ax.plot(xy[:, 0], xy[:, 1], color=color, lw=2.0, zorder=2, label=names[k])
-    for node, (x, y) in pos.items():
-        ax.scatter([x], [y], s=140, color="white", edgecolor="0.2", lw=0.7, zorder=3)
-        ax.annotate(node, (x, y), ha="center", va="center", fontsize=FONT_SIZE - 2, zorder=4)
+    xy = np.array(list(pos.values())) if pos else np.zeros((0, 2))
+    if aggregate:
+        ax.scatter(xy[:, 0], xy[:, 1], s=3, color="0.2", lw=0, zorder=3, rasterized=True)
+        named = {n for path in pathways for n in path}
+        for node in sorted(named):
+            x, y = pos[node]
+            ax.scatter([x], [y], s=60, color="white", edgecolor="0.2", lw=0.7, zorder=4)
+            ax.annotate(
+                f" {node}", (x, y), ha="left", va="center", fontsize=FONT_SIZE - 3, zorder=5
+            )
+        columns: dict[float, int] = {}
+        for x, _ in pos.values():
+            columns[x] = columns.get(x, 0) + 1
+        for x, count in columns.items():
+            ax.annotate(f"{count}", (x, 0.53), ha="center", va="bottom", fontsize=FONT_SIZE - 3)
+        ax.set_ylim(-0.55, 0.6)
+        ax.set_title(
+            f"{graph.number_of_nodes()} states, {n_edges} single-fold transitions "
+            "(states per column on top)",
+            fontsize=FONT_SIZE - 1,
+        )
+    else:
+        for node, (x, y) in pos.items():
+            ax.scatter([x], [y], s=140, color="white", edgecolor="0.2", lw=0.7, zorder=3)
+            ax.annotate(node, (x, y), ha="center", va="center", fontsize=FONT_SIZE - 2, zorder=4)
+    if len(xy):
+        ax.set_xlim(xy[:, 0].min() - 0.6, xy[:, 0].max() + 0.6)
+        if not aggregate:
+            ax.set_ylim(xy[:, 1].min() - 0.6, xy[:, 1].max() + 0.6)
     ax.set_xlabel("open folds")
     ax.set_yticks([])
     for side in ("left", "right", "top"):
@@ -152,13 +202,14 @@ def endpoint_space(states: Any, *, ax: Axes | None = None, annotate: bool = True
     ur = np.asarray(states["u_r"].values, dtype=float) / l0
     th = np.asarray(states["Theta"].values, dtype=float)
     hel = np.asarray(states["n_open_helical"].values, dtype=int)
+    marker = float(np.clip(14.0 * np.sqrt(66.0 / max(uz.size, 1)), 2.0, 14.0))
     for b in np.unique(hel):
         sel = hel == b
         ax.scatter(  # type: ignore[misc]
             uz[sel],
             ur[sel],
             th[sel],
-            s=14,
+            s=marker,
             color=PALETTE[int(b) % len(PALETTE)],
             label=f"{b} open helical",
             depthshade=False,
@@ -178,7 +229,8 @@ def endpoint_space(states: Any, *, ax: Axes | None = None, annotate: bool = True
     texts = []
     if annotate:
         names = [str(n) for n in states["state"].values]
-        for k in _label_order(states, np.column_stack([uz, ur, th])):
+        order = _label_order(states, np.column_stack([uz, ur, th]))
+        for k in order[:MAX_NAME_CANDIDATES]:
             text = ax.text(uz[k], ur[k], th[k], f" {names[k]}", fontsize=FONT_SIZE - 3)  # type: ignore[arg-type]
             texts.append(text)
     n = uz.size
