@@ -129,7 +129,7 @@ def test_resumed_enumeration_equals_an_uninterrupted_one(model2fb, tmp_path):
 def test_a_large_exhaustive_search_is_refused_with_its_cost_before_any_work(monkeypatch):
     model = biplan.Model(biplan.designs.fully_bistable(n_modules=7))  # 13 folds
     monkeypatch.setattr(seeding, "evaluate", _forbidden)
-    with pytest.raises(biplan.ConfigError, match=r"8,192 seeds.*confirm.*about 2 min"):
+    with pytest.raises(biplan.ConfigError, match=r"8,192 seeds.*confirm.*about 100 s"):
         enumerate_states(model)
     with pytest.raises(biplan.ConfigError, match="search"):
         enumerate_states(model, search="exhaustive")  # type: ignore[arg-type]
@@ -163,7 +163,7 @@ def test_dask_workers_give_the_states_of_one_process_even_when_one_dies():
 
         def progress(k: int, n: int) -> None:
             done.append(k)
-            if not killed:
+            if k and not killed:  # after the first chunk came back
                 os.kill(pids[0], signal.SIGKILL)
                 killed.append(pids[0])
 
@@ -172,7 +172,7 @@ def test_dask_workers_give_the_states_of_one_process_even_when_one_dies():
         )
     finally:
         cluster.close()
-    assert killed and done[-1] == 512 and len(done) == 4
+    assert killed and done == [0, 128, 256, 384, 512]
     assert _catalogue_key(spread) == _catalogue_key(alone)
     for a, b in zip(alone.states, spread.states, strict=True):
         np.testing.assert_allclose(a.z, b.z, rtol=0, atol=1e-12)
@@ -201,3 +201,25 @@ def test_states_command_checks_the_search_request_first(tmp_path, monkeypatch, c
         assert info.value.code == EXIT_BIPLAN_ERROR, (args, err)
         lines = [line for line in err.splitlines() if line.strip()]
         assert len(lines) == 1 and message in lines[0], (args, err)
+
+
+@pytest.mark.parametrize("which", ["fully_bistable_2", "base_fold_1"])
+def test_at_rest_assembly_equals_the_general_one_at_zero_load(which, model2fb, model1):
+    """The polish of the searches drops the load point's terms at rest: same r and KKT J."""
+    from biplan import assembly
+
+    model = model2fb if which == "fully_bistable_2" else model1
+    rng = np.random.default_rng(7)
+    zero = assembly.Load.of_force(0.0).for_kernel()
+    for _ in range(3):
+        z = jnp.asarray(rng.normal(scale=0.05, size=model.n_unknowns))
+        args = (model.layout, model.params, z)
+        np.testing.assert_allclose(
+            assembly.residual_at_rest(*args), assembly.residual(*args, zero), rtol=0, atol=1e-12
+        )
+        np.testing.assert_allclose(
+            assembly.kkt_jacobian_at_rest(*args),
+            assembly.kkt_jacobian(*args, zero),
+            rtol=0,
+            atol=1e-12,
+        )

@@ -39,6 +39,7 @@ from biplan.laws import _kernels as law_kernels
 from biplan.options import ContactForm, ModelOptions
 
 __all__ = [
+    "AT_REST",
     "Load",
     "Model",
     "ModelParams",
@@ -49,9 +50,11 @@ __all__ = [
     "guide_values",
     "kernels",
     "kkt_jacobian",
+    "kkt_jacobian_at_rest",
     "kkt_matrix",
     "phase_fractions",
     "residual",
+    "residual_at_rest",
     "sizes",
     "state_data",
     "state_from_jacobian",
@@ -235,12 +238,23 @@ def load_height(layout: TubeLayout, p: ModelParams, q: Array) -> Array:
 
 
 def _terms(
-    layout: TubeLayout, p: ModelParams, z: Array, load: Load, second_order: bool
+    layout: TubeLayout,
+    p: ModelParams,
+    z: Array,
+    load: Load,
+    second_order: bool,
+    loaded: bool = True,
 ) -> tuple[elements.LocalTerms, elements.ChainTerms, Array, Array]:
-    """Local and chain terms at z, the ∇z_p coefficient μd − F, and the bias-free q."""
+    """Local and chain terms at z, the ∇z_p coefficient μd − F, and the bias-free q
+    (``loaded=False``: the load is :data:`AT_REST`, whose chain terms are zeros)."""
     q, lam, lam_c, mu = _split(layout, z)
     local = elements.local_terms(layout, p, q, lam, lam_c, second_order)
-    chain_part = elements.chain_terms(layout, p.geometry, q, second_order)
+    if loaded:
+        chain_part = elements.chain_terms(layout, p.geometry, q, second_order)
+    else:
+        nq = q.shape[0]
+        zero_h = jnp.zeros((nq, nq)) if second_order else None
+        chain_part = elements.ChainTerms(jnp.zeros(()), jnp.zeros(nq), zero_h)
     return local, chain_part, mu * load.displacement_control - load.force, q
 
 
@@ -263,7 +277,27 @@ def _lagrangian_hessian(
 
 def residual(layout: TubeLayout, p: ModelParams, z: Array, load: Load) -> Array:
     """KKT residual r(z) (MODEL §11) for z = [q, λ, λ_∂, μ], assembled over the elements."""
-    local, chain_part, coef, q = _terms(layout, p, z, load, second_order=False)
+    return _residual(layout, p, z, load, loaded=True)
+
+
+#: Zero end force under force control: the load of a tube at rest (state searches).
+AT_REST = Load(0.0, 0.0, 0.0)
+
+
+def residual_at_rest(layout: TubeLayout, p: ModelParams, z: Array) -> Array:
+    """:func:`residual` at :data:`AT_REST`. There the load point's terms vanish
+    ((μd − F) ∇z_p = 0 and the last row is μ), so they are not evaluated."""
+    return _residual(layout, p, z, Load(*map(jnp.asarray, AT_REST)), loaded=False)
+
+
+def kkt_jacobian_at_rest(layout: TubeLayout, p: ModelParams, z: Array) -> Array:
+    """:func:`kkt_jacobian` at :data:`AT_REST`, without the load point's terms (as
+    :func:`residual_at_rest`)."""
+    return _kkt_jacobian(layout, p, z, Load(*map(jnp.asarray, AT_REST)), loaded=False)
+
+
+def _residual(layout: TubeLayout, p: ModelParams, z: Array, load: Load, loaded: bool) -> Array:
+    local, chain_part, coef, q = _terms(layout, p, z, load, False, loaded)
     _, _, lam_c, mu = _split(layout, z)
     d = load.displacement_control
     return jnp.concatenate(
@@ -289,7 +323,11 @@ def kkt_jacobian(layout: TubeLayout, p: ModelParams, z: Array, load: Load) -> Ar
     D_w = diag(ŵ/ρ − 1), D_λ = diag(c (ŵ/ρ − 1) + λ/ρ − 1), ρ = √(ŵ² + λ² + ε²), ŵ = w + c λ
     (c: ``ModelOptions.contact_compliance``).
     """
-    local, chain_part, coef, _ = _terms(layout, p, z, load, second_order=True)
+    return _kkt_jacobian(layout, p, z, load, loaded=True)
+
+
+def _kkt_jacobian(layout: TubeLayout, p: ModelParams, z: Array, load: Load, loaded: bool) -> Array:
+    local, chain_part, coef, _ = _terms(layout, p, z, load, True, loaded)
     _, _, lam_c, _ = _split(layout, z)
     k = _lagrangian_hessian(p, local, chain_part, coef)
     return kkt_matrix(

@@ -60,9 +60,9 @@ __all__ = [
 #: Seeds above which a search runs only when confirmed (``confirm=True``, ``--yes``).
 CONFIRM_SEEDS = 2**12
 #: Wall time per seed [s] is about this × N² for N modules (relaxation and observation, fully
-#: bistable tubes, warm kernels, one process on the 2-core development machine: 5.1 ms at
-#: N = 4, 11.6 ms at N = 6; docs/performance.md).
-SECONDS_PER_SEED = 3.2e-4
+#: bistable tubes, warm kernels, one process on the 2-core development machine: 3.9 ms at
+#: N = 4, 8.9 ms at N = 6; docs/performance.md).
+SECONDS_PER_SEED = 2.5e-4
 
 Progress = Callable[[int, int], None]
 
@@ -221,33 +221,17 @@ def exhaustive(
     """Every seed, chunk by chunk (:func:`evaluate`): chunks already in ``sink`` are loaded,
     the others computed by ``runner`` (:mod:`biplan.analysis.scaleout`; default this process)
     and saved to ``sink`` as they finish; the result is in seed order either way."""
-    from biplan.analysis.sweeps import run_local
+    from biplan.analysis.sweeps import run_chunks
 
     total = 2 ** len(folds)
     chunks = [
         np.arange(lo, min(lo + settings.chunk, total)) for lo in range(0, total, settings.chunk)
     ]
-    results: dict[int, dict[str, np.ndarray]] = {}
-    for c in range(len(chunks)):
-        if sink is not None and sink.done(c):
-            results[c] = sink.load(c)
-    done = sum(len(chunks[c]) for c in results)
-    if progress is not None and results:
-        progress(done, total)
-    todo = [(c, idx) for c, idx in enumerate(chunks) if c not in results]
     if runner is None:
-        task = functools.partial(evaluate, model, folds, settings=settings)
-        run: Any = run_local
+        task: Any = functools.partial(evaluate, model, folds, settings=settings)
     else:
         task = functools.partial(evaluate_chunk, model.tube, settings)
-        run = runner
-    for c, res in run(task, todo):
-        results[c] = res
-        if sink is not None:
-            sink.save(c, res)
-        done += len(chunks[c])
-        if progress is not None:
-            progress(done, total)
+    results = run_chunks(task, chunks, runner=runner, sink=sink, progress=progress)
     return _concatenate([results[c] for c in range(len(chunks))])
 
 

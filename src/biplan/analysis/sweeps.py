@@ -43,6 +43,7 @@ __all__ = [
     "chunk_indices",
     "evaluate_chunk",
     "parse_axis",
+    "run_chunks",
     "run_local",
     "sweep",
 ]
@@ -176,6 +177,41 @@ def run_local(
         yield cid, task(idx)
 
 
+def run_chunks(
+    task: Callable[[np.ndarray], dict[str, np.ndarray]],
+    chunks: Sequence[np.ndarray],
+    *,
+    runner: Callable[..., Iterable[tuple[int, dict[str, np.ndarray]]]] | None = None,
+    sink: ChunkSink | None = None,
+    progress: Callable[[int, int], object] | None = None,
+    wanted: Sequence[int] | None = None,
+) -> dict[int, dict[str, np.ndarray]]:
+    """The results of chunks (arrays of indices) by chunk number: those ``sink`` holds are
+    loaded, the others (of ``wanted``; default all) computed as ``task(indices)`` by ``runner``
+    (default this process, :func:`run_local`) and saved to ``sink`` as they finish;
+    ``progress(indices_done, n_indices)`` after the loaded ones and after every chunk."""
+    results: dict[int, dict[str, np.ndarray]] = {}
+    todo: list[tuple[int, np.ndarray]] = []
+    keep = set(range(len(chunks)) if wanted is None else wanted)
+    for cid, idx in enumerate(chunks):
+        if sink is not None and sink.done(cid):
+            results[cid] = sink.load(cid)
+        elif cid in keep:
+            todo.append((cid, idx))
+    total = sum(len(c) for c in chunks)
+    done = sum(len(chunks[c]) for c in results)
+    if progress is not None:
+        progress(done, total)
+    for cid, res in (runner or run_local)(task, todo):
+        results[cid] = res
+        if sink is not None:
+            sink.save(cid, res)
+        done += len(chunks[cid])
+        if progress is not None:
+            progress(done, total)
+    return results
+
+
 def assemble(
     design: Tube,
     grid: Grid,
@@ -276,26 +312,10 @@ def sweep(
     """
     check_grid(design, grid, quantity)
     chunks = chunk_indices(grid, chunk_size)
-    results: dict[int, dict[str, np.ndarray]] = {}
-    todo: list[tuple[int, np.ndarray]] = []
-    wanted = set(range(len(chunks)) if chunks_to_run is None else chunks_to_run)
-    for cid, idx in enumerate(chunks):
-        if sink is not None and sink.done(cid):
-            results[cid] = sink.load(cid)
-        elif cid in wanted:
-            todo.append((cid, idx))
-    done_points = sum(len(chunks[c]) for c in results)
-    if progress is not None:
-        progress(done_points, grid.size)
-    run = runner or run_local
     task = functools.partial(evaluate_chunk, design, grid, quantity, batch=chunk_size)
-    for cid, res in run(task, todo):
-        results[cid] = res
-        if sink is not None:
-            sink.save(cid, res)
-        done_points += len(chunks[cid])
-        if progress is not None:
-            progress(done_points, grid.size)
+    results = run_chunks(
+        task, chunks, runner=runner, sink=sink, progress=progress, wanted=chunks_to_run
+    )
     if len(results) < len(chunks):
         return None
     ds = assemble(design, grid, quantity, chunks, results)

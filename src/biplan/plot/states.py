@@ -36,8 +36,11 @@ ROW_HEIGHT = 0.165
 LABEL_GAP = 2.0
 #: Tallest column of :func:`transition_diagram` drawn with every state named (≈ 17 in).
 MAX_NAMED_ROWS = 100
-#: Most names :func:`endpoint_space` tries to place (extremes first, then by energy).
+#: Most names :func:`endpoint_space` tries to place (extremes first, then by energy), and the
+#: fewer it tries in a cloud of more than :data:`DENSE_STATES` states.
 MAX_NAME_CANDIDATES = 150
+DENSE_NAME_CANDIDATES = 40
+DENSE_STATES = 300
 
 #: Okabe–Ito colours for pathways and slope branches.
 PALETTE = ("#0072B2", "#D55E00", "#009E73", "#CC79A7", "#E69F00", "#56B4E9", "#F0E442", "#000000")
@@ -230,7 +233,8 @@ def endpoint_space(states: Any, *, ax: Axes | None = None, annotate: bool = True
     if annotate:
         names = [str(n) for n in states["state"].values]
         order = _label_order(states, np.column_stack([uz, ur, th]))
-        for k in order[:MAX_NAME_CANDIDATES]:
+        tried = MAX_NAME_CANDIDATES if uz.size <= DENSE_STATES else DENSE_NAME_CANDIDATES
+        for k in order[:tried]:
             text = ax.text(uz[k], ur[k], th[k], f" {names[k]}", fontsize=FONT_SIZE - 3)  # type: ignore[arg-type]
             texts.append(text)
     n = uz.size

@@ -34,6 +34,7 @@ from biplan import _linalg as linalg
 from biplan._jax import jax, jnp
 from biplan._kernels import kernel
 from biplan.assembly import (
+    AT_REST,
     Load,
     ModelParams,
     TubeLayout,
@@ -41,19 +42,23 @@ from biplan.assembly import (
     energy,
     fold_openings,
     guide_values,
+    kkt_jacobian_at_rest,
+    residual_at_rest,
     sizes,
 )
-from biplan.solvers.core import Settings
-from biplan.solvers.newton import newton_loop, newton_machine
+from biplan.solvers.core import Settings, machine
+from biplan.solvers.newton import newton_loop
 from biplan.solvers.pool import LANES, refill
 
 __all__ = ["RelaxOutput", "relax_pool", "relax_seed"]
 
 Array = Any
 
-#: Gauss–Newton iterations of the kinematic seed and the largest step [mm, rad] per iteration.
+#: Gauss–Newton iterations of the kinematic seed (at most), the largest step [mm, rad] per
+#: iteration, and the step below which the seed has converged [mm, rad].
 SEED_ITERATIONS = 40
 SEED_MAX_STEP = 0.2
+SEED_STEP_TOL = 1e-13
 #: Descent: trial step lengths 1, 1/2, … (evaluated together), Armijo constant, largest step
 #: [mm, rad], gradient tolerance [N, N·mm] and the smallest Hessian eigenvalue after the shift.
 LINE_SEARCH_POINTS = 16
@@ -83,16 +88,23 @@ def _seed(layout: TubeLayout, p: ModelParams, target: Array, mask: Array) -> tup
             [guide_values(layout, p, q), mask * (fold_openings(layout, p, q) - target)]
         )
 
-    def body(_: int, q: Array) -> Array:
+    def body(s: tuple[Array, Array, Array]) -> tuple[Array, Array, Array]:
+        k, q, _ = s
         r = res(q)
         j = jax.jacfwd(res)(q)
         jtj = j.T @ j
         step = linalg.solve(jtj + 1e-10 * jnp.eye(nq), -(j.T @ r))
         scale = jnp.minimum(1.0, SEED_MAX_STEP / (jnp.max(jnp.abs(step)) + 1e-300))
         new = q + scale * step
-        return jnp.where(jnp.all(jnp.isfinite(new)), new, q)
+        ok = jnp.all(jnp.isfinite(new))
+        moved = jnp.max(jnp.abs(scale * step))
+        return k + 1, jnp.where(ok, new, q), ok & (moved < SEED_STEP_TOL)
 
-    q = jax.lax.fori_loop(0, SEED_ITERATIONS, body, jnp.zeros(nq))
+    def cond(s: tuple[Array, Array, Array]) -> Array:
+        return (s[0] < SEED_ITERATIONS) & ~s[2]
+
+    start = (jnp.asarray(0), jnp.zeros(nq), jnp.asarray(False))
+    _, q, _ = jax.lax.while_loop(cond, body, start)
     return q, jnp.max(jnp.abs(res(q)))
 
 
@@ -144,9 +156,6 @@ def _multipliers_start(layout: TubeLayout, p: ModelParams, q: Array, stiffness: 
     return jnp.concatenate([q, lam, lam_c, jnp.zeros(1)])
 
 
-_AT_REST = Load(0.0, 0.0, 0.0)
-
-
 def relax_seed(
     layout: TubeLayout,
     p: ModelParams,
@@ -177,7 +186,7 @@ def relax_seed(
     init, body, running = _descent(layout, p, stiffness, max_iterations)
     q, iterations, _ = jax.lax.while_loop(running, body, init(q_seed))
     z0 = _multipliers_start(layout, p, q, stiffness)
-    out = newton_loop(layout, p, z0, Load(*map(jnp.asarray, _AT_REST)), settings)
+    out = newton_loop(layout, p, z0, Load(*map(jnp.asarray, AT_REST)), settings)
     return RelaxOutput(
         q_seed=q_seed,
         seed_residual=seed_res,
@@ -204,12 +213,13 @@ def relax_pool(
     """Relax seeds 0 … n_tasks−1 of (T, N + Nc) ``target``/``mask`` (pure; jit-able;
     ``relax_pool.compiled(layout, lanes)`` is its kernel).
 
-    The kinematic seeds run in blocks of ``lanes`` (every seed takes the same
-    :data:`SEED_ITERATIONS`; blocks past n_tasks are skipped); the descent and the KKT polish
-    run on ``lanes`` refilled lanes each (:func:`biplan.solvers.pool.refill`), so a seed that
-    needs 200 descent iterations occupies one lane while the others move on. Each seed's
-    result equals :func:`relax_seed`'s (same iterations, same order of operations).
-    Rows ≥ n_tasks are padding (status −1).
+    The kinematic seeds run in blocks of ``lanes`` (a few Gauss–Newton iterations each, in
+    lock-step; blocks past n_tasks are skipped); the descent and the KKT polish run on
+    ``lanes`` refilled lanes each (:func:`biplan.solvers.pool.refill`), so a seed that needs
+    200 descent iterations occupies one lane while the others move on; the polish assembles
+    without the load point's terms, which vanish at rest
+    (:func:`biplan.assembly.residual_at_rest`). Each seed's result is :func:`relax_seed`'s up
+    to rounding (the test compares them). Rows ≥ n_tasks are padding (status −1).
     """
     t_total = target.shape[0]
     nq = layout.n_coordinates
@@ -245,9 +255,13 @@ def relax_pool(
         (q_seed, jnp.zeros(t_total, dtype=jnp.int32)),
     )
 
-    load = Load(*map(jnp.asarray, _AT_REST))
-    n_init, n_body, n_running, n_finish = newton_machine(
-        layout, p, load, settings, line_search_loop=True, axis_name=LANES
+    # at rest the load point's terms vanish: the polish assembles without them
+    n_init, n_body, n_running, n_finish = machine(
+        functools.partial(residual_at_rest, layout, p),
+        functools.partial(kkt_jacobian_at_rest, layout, p),
+        settings,
+        line_search_loop=True,
+        axis_name=LANES,
     )
 
     def polish_step(task: Array, s: Any) -> tuple:
