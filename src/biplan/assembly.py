@@ -287,13 +287,13 @@ AT_REST = Load(0.0, 0.0, 0.0)
 def residual_at_rest(layout: TubeLayout, p: ModelParams, z: Array) -> Array:
     """:func:`residual` at :data:`AT_REST`. There the load point's terms vanish
     ((μd − F) ∇z_p = 0 and the last row is μ), so they are not evaluated."""
-    return _residual(layout, p, z, Load(*map(jnp.asarray, AT_REST)), loaded=False)
+    return _residual(layout, p, z, AT_REST.for_kernel(), loaded=False)
 
 
 def kkt_jacobian_at_rest(layout: TubeLayout, p: ModelParams, z: Array) -> Array:
     """:func:`kkt_jacobian` at :data:`AT_REST`, without the load point's terms (as
     :func:`residual_at_rest`)."""
-    return _kkt_jacobian(layout, p, z, Load(*map(jnp.asarray, AT_REST)), loaded=False)
+    return _kkt_jacobian(layout, p, z, AT_REST.for_kernel(), loaded=False)
 
 
 def _residual(layout: TubeLayout, p: ModelParams, z: Array, load: Load, loaded: bool) -> Array:

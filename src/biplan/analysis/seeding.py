@@ -52,6 +52,7 @@ __all__ = [
     "exhaustive",
     "fold_vector_index",
     "neighbourhood",
+    "outcome_masks",
     "relax_seeds",
     "seed_bits",
     "seed_targets",
@@ -88,6 +89,14 @@ def seed_bits(indices: np.ndarray, n_folds: int) -> np.ndarray:
 def _seed_index(bits: np.ndarray) -> np.ndarray:
     n = bits.shape[-1]
     return (np.asarray(bits, dtype=np.int64) << np.arange(n - 1, -1, -1, dtype=np.int64)).sum(-1)
+
+
+def outcome_masks(res: dict[str, np.ndarray], tolerance: float) -> tuple[np.ndarray, np.ndarray]:
+    """(converged, stable) per seed of :func:`evaluate`'s result: a finite equilibrium whose
+    solve converged, and among those the ones with λ_min > ``tolerance`` [N/mm]."""
+    converged = (res["status"] == Status.CONVERGED.value) & np.isfinite(res["residual"])
+    converged &= np.all(np.isfinite(res["z"]), axis=1)
+    return converged, converged & (res["min_eigenvalue"] > tolerance)
 
 
 def cost_estimate(n_seeds: int, n_modules: int) -> str:
@@ -253,9 +262,7 @@ def neighbourhood(
         part = evaluate(model, folds, frontier, settings)
         parts.append(part)
         tried.update(int(i) for i in frontier)
-        stable = (part["status"] == Status.CONVERGED.value) & (
-            part["min_eigenvalue"] > settings.stability_tolerance
-        )
+        _, stable = outcome_masks(part, settings.stability_tolerance)
         reached = np.unique(part["reached"][stable], axis=0)
         neighbours = _seed_index((reached[:, None, :] ^ flips[None]).reshape(-1, n))
         frontier = np.array(sorted(set(neighbours.tolist()) - tried), dtype=np.int64)

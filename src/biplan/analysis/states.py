@@ -259,9 +259,7 @@ def enumerate_states(
     else:
         res = seeding.neighbourhood(model, folds, settings, progress)
     z = res["z"]
-    converged = (res["status"] == Status.CONVERGED.value) & np.isfinite(res["residual"])
-    converged &= np.all(np.isfinite(z), axis=1)
-    stable = converged & (res["min_eigenvalue"] > settings.stability_tolerance)
+    converged, stable = seeding.outcome_masks(res, settings.stability_tolerance)
     nq = model.layout.n_coordinates
     state_of = _merge(z[:, :nq], stable, settings.duplicate_tolerance)
     unstable_of = _merge(z[:, :nq], converged & ~stable, settings.duplicate_tolerance)
@@ -270,9 +268,9 @@ def enumerate_states(
     name_of = dict(zip(reps.tolist(), names, strict=True))
     seeds_of: dict[int, list[str]] = {int(r): [] for r in reps}
     outcomes = []
-    n_bits = len(folds)
+    all_seed_bits = seeding.seed_bits(res["seed"], len(folds))
     for i in range(len(z)):
-        seed_bits = tuple(int(b) for b in seeding.seed_bits(res["seed"][i : i + 1], n_bits)[0])
+        seed_bits = tuple(int(b) for b in all_seed_bits[i])
         eig = float(res["min_eigenvalue"][i])
         common: dict[str, Any] = {
             "seed": bits_to_label(seed_bits),

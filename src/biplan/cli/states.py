@@ -260,9 +260,11 @@ def states(
             model, quiet, search=method, sink=sink, confirm=yes, runner=runner
         )
     except KeyboardInterrupt:
-        kept = len(sink.finished) if sink is not None else 0
-        where = f"{kept} finished chunks kept in {out}/seeds; rerun with --resume" if sink else ""
-        Console(stderr=True, highlight=False).print(f"[yellow]interrupted[/] {where}")
+        if sink is not None:
+            where = f"{len(sink.finished)} finished chunks kept in {out}/seeds; rerun with --resume"
+        else:
+            where = "nothing kept (the neighbourhood search is not streamed to disk)"
+        Console(stderr=True, highlight=False).print(f"[yellow]interrupted:[/] {where}")
         raise typer.Exit(130) from None
     graph = transition_graph(catalogue)
     if barriers:

@@ -35,7 +35,6 @@ from biplan._jax import jax, jnp
 from biplan._kernels import kernel
 from biplan.assembly import (
     AT_REST,
-    Load,
     ModelParams,
     TubeLayout,
     contact_gaps,
@@ -186,7 +185,7 @@ def relax_seed(
     init, body, running = _descent(layout, p, stiffness, max_iterations)
     q, iterations, _ = jax.lax.while_loop(running, body, init(q_seed))
     z0 = _multipliers_start(layout, p, q, stiffness)
-    out = newton_loop(layout, p, z0, Load(*map(jnp.asarray, AT_REST)), settings)
+    out = newton_loop(layout, p, z0, AT_REST.for_kernel(), settings)
     return RelaxOutput(
         q_seed=q_seed,
         seed_residual=seed_res,
