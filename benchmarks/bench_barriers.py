@@ -21,20 +21,20 @@ import time
 import numpy as np
 
 import biplan
-from biplan._jax import jnp
-from biplan.analysis._nebkernel import band_forces
-from biplan.analysis.barriers import NudgedElasticBand, edge_barriers, minimum_energy_path
-from biplan.analysis.deflation import deflate
+from biplan._compile.setup import jnp
+from biplan.analysis.states._nebkernel import band_forces
+from biplan.analysis.states.barriers import NudgedElasticBand, edge_barriers, minimum_energy_path
+from biplan.analysis.states.deflation import deflate
 
 
 def stable_states(model: biplan.Model, path: str | None = None) -> tuple[np.ndarray, np.ndarray]:
     """Packed states (k, n_z) and fold bits (k, n_folds) of the stable states: enumerated
-    (``biplan.analysis.states.enumerate_states``), or read from an ``.npz`` with ``z`` and
+    (``biplan.analysis.states.search.enumerate_states``), or read from an ``.npz`` with ``z`` and
     ``bits`` (to skip the enumeration's compilation)."""
     if path is not None:
         data = np.load(path)
         return data["z"], data["bits"].astype(int)
-    from biplan.analysis.states import enumerate_states
+    from biplan.analysis.states.search import enumerate_states
 
     catalogue = enumerate_states(model)
     z = np.stack([s.z for s in catalogue.states])
@@ -106,7 +106,7 @@ def main() -> None:
     # per-iteration force evaluation: compiled vmap vs NumPy loop over images
     import functools
 
-    from biplan._jax import jax
+    from biplan._compile.setup import jax
 
     fn = jax.jit(
         functools.partial(band_forces, model.layout),

@@ -8,7 +8,7 @@ in a loop with the same thread setting. For each setting (``--threads`` threads,
 process times a dense solve of an n × n system (NumPy/LAPACK and ``jnp.linalg.solve``, which
 calls the same OpenBLAS) and prints the ratio. n = 505 is the KKT system of the 48-module
 semi-bistable tube. biplan runs BLAS on one thread per process by default
-(``biplan._jax``, ``BIPLAN_BLAS_THREADS``); docs/performance.md, "BLAS threads".
+(``biplan._compile.setup``, ``BIPLAN_BLAS_THREADS``); docs/performance.md, "BLAS threads".
 """
 
 from __future__ import annotations
@@ -46,8 +46,8 @@ def main() -> None:
     import numpy as np
     from threadpoolctl import threadpool_limits
 
-    import biplan.assembly  # noqa: F401  (biplan's set-up: float64, one BLAS thread)
-    from biplan._jax import jax, jnp
+    import biplan.model.assembly  # noqa: F401  (biplan's set-up: float64, one BLAS thread)
+    from biplan._compile.setup import jax, jnp
 
     a = np.random.default_rng(0).normal(size=(args.n, args.n)) + args.n * np.eye(args.n)
     b = np.ones(args.n)

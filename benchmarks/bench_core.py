@@ -7,7 +7,7 @@ Prints, for the semi-bistable paper design (6 modules, 64 unknowns):
 * cold start — a fresh process with JAX's persistent cache disabled: import, build the model,
   relaxed reference, one displacement-controlled solve + stability classification;
 * cache-warm start — the same in a fresh process reading the persistent cache, with the
-  kernel store (traced kernels, ``biplan._kernels``) off and on: the store's share is the
+  kernel store (traced kernels, ``biplan._compile.kernel``) off and on: the store's share is the
   tracing and lowering that a warm start no longer does;
 * two processes at once on a fresh cache (e.g. two Dask workers starting on the same design),
   with the store's build lock (one process traces and compiles each kernel, the other waits
@@ -52,7 +52,7 @@ def _start(cache: str, store: str = "on") -> tuple[float, float]:
 
 UNLOCKED = """
 import contextlib
-from biplan import _kernels
+from biplan._compile import kernel as _kernels
 _kernels._entry_lock = lambda file: contextlib.nullcontext()
 """
 

@@ -8,7 +8,7 @@ In one process, for the semi-bistable paper design (6 modules):
 * design map — ``sweep`` of the force-ramp response over an n × n (b, C) grid,
   b ∈ [0.40, 0.57], C ∈ [0.5, 3.0] (one layout), 16 load steps; cold (first call in the
   process: compilation or the persistent-cache load) and warm times, points/s;
-* scalar loop — :func:`biplan.analysis.design_map.response_point` (one Newton solve per load
+* scalar loop — :func:`biplan.analysis.maps.design_map.response_point` (one Newton solve per load
   step, the same algorithm unbatched) over ``--baseline`` points, points/s;
 * stability map — ``sweep`` of the equilibrium count over an n × n (C, U/l₀) grid at the
   design's b (0.573, same layout), C ∈ [0.5, 3.0], U/l₀ ∈ [0.01, 0.4], chunks of whole rows
@@ -33,10 +33,10 @@ import time
 import numpy as np
 
 import biplan
-from biplan.analysis.design_map import ResponseEvaluator, response_point
+from biplan.analysis.maps.design_map import ResponseEvaluator, response_point
+from biplan.analysis.maps.stability_map import StabilityEvaluator, stability_chunk_size
+from biplan.analysis.maps.sweeps import Grid, apply_values, sweep
 from biplan.analysis.scaleout import dask_runner, thread_runner
-from biplan.analysis.stability_map import StabilityEvaluator, stability_chunk_size
-from biplan.analysis.sweeps import Grid, apply_values, sweep
 
 
 def _timed(fn):  # type: ignore[no-untyped-def]

@@ -11,7 +11,7 @@ For each N, a fresh process with an empty JAX cache and kernel store (a tube nev
 * ``warm step``: the same path again in the same process (best of three), wall time /
   accepted states [ms]: the corrector, the per-state observation (stability) and the
   Python around them;
-* the same three numbers with the whole-tube autodiff assembly (:mod:`biplan._oracle`)
+* the same three numbers with the whole-tube autodiff assembly (:mod:`biplan.model.oracle`)
   patched into the solvers, in the same run (the baseline; up to ``--oracle-max`` modules).
 
 Semi-bistable: the SI Table laws and geometry with N modules on a base fold. Fully bistable:
@@ -36,9 +36,9 @@ t0 = time.perf_counter()
 import numpy as np
 import biplan
 if {oracle}:
-    from biplan import _oracle, assembly
+    from biplan.model import assembly, oracle as _oracle
     from biplan.solvers import _pathkernel, observe, _dynkernel
-    from biplan.analysis import design_map
+    from biplan.analysis.maps import design_map
     for mod in (assembly, _pathkernel, _dynkernel, design_map):
         for name in ("residual", "kkt_jacobian"):
             if hasattr(mod, name):
@@ -83,8 +83,8 @@ PIECES = r"""
 import json, os, time
 import numpy as np
 import biplan
-from biplan import _oracle, assembly as asm, elements as E
-from biplan._jax import jax, jnp
+from biplan.model import assembly as asm, elements as E, oracle as _oracle
+from biplan._compile.setup import jax, jnp
 n = {n}
 t = biplan.designs.semi_bistable()
 tube = biplan.Tube.uniform(radius=2.0, pitch=3.6, helical_angle=60.0, n_modules=n,

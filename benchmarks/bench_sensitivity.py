@@ -4,10 +4,10 @@ differences of re-solves.
 On the semi-bistable design (``designs.semi_bistable()``, six modules, SI Table calib) at the
 end force ``--force`` (default 1.0 N, on the phase-1 branch from the relaxed reference), times
 
-* :func:`biplan.analysis.sensitivity.sensitivity`: every observable (u_z, u_r, θ, Π, z_p,
+* :func:`biplan.analysis.sensitivity.equilibrium.sensitivity`: every observable (u_z, u_r, θ, Π, z_p,
   λ_min) with respect to every parameter (R, l, β, the helical stiffness, the circular law's
   k1, k2, k3, l1, l2 and F): one kernel call and one factorisation of the KKT Jacobian;
-* :func:`biplan.analysis.finite_differences.finite_differences`: the same table by central
+* :func:`biplan.analysis.sensitivity.finite_differences.finite_differences`: the same table by central
   differences, two Newton re-solves (from the converged state, ‖r‖∞ < 1e-13) per parameter;
 
 both warm (each run once first, untimed, to compile), and prints the ratio and the largest
@@ -24,8 +24,8 @@ import time
 import numpy as np
 
 import biplan
-from biplan.analysis.finite_differences import finite_differences
-from biplan.analysis.sensitivity import sensitivity
+from biplan.analysis.sensitivity.equilibrium import sensitivity
+from biplan.analysis.sensitivity.finite_differences import finite_differences
 
 
 def best_of(repeat: int, fn) -> tuple[float, object]:  # type: ignore[no-untyped-def]

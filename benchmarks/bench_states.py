@@ -2,9 +2,9 @@
 
 For each N of ``--sizes`` (default 4 5 6), in one process:
 
-* exhaustive search (all 2^(2N−1) seeds; :func:`biplan.analysis.states.enumerate_states`):
+* exhaustive search (all 2^(2N−1) seeds; :func:`biplan.analysis.states.search.enumerate_states`):
   cold (a new layout: its kernels compile; the persistent cache may hold them) and warm;
-* neighbourhood search (:attr:`~biplan.analysis.states.Search.NEIGHBOURHOOD`), warm, with the
+* neighbourhood search (:attr:`~biplan.analysis.states.search.Search.NEIGHBOURHOOD`), warm, with the
   seeds it tried and whether it found the same states;
 * the baseline in the same run: the relaxation of every seed in lock-step ``vmap`` chunks of 16
   (the same pure one-seed ``relax_seed`` the pool runs, as the enumeration ran before the
@@ -31,10 +31,10 @@ from typing import Any
 import numpy as np
 
 import biplan
-from biplan._jax import jax, jnp
-from biplan.analysis import seeding
-from biplan.analysis.labels import bistable_folds
-from biplan.analysis.states import Enumeration, Search, enumerate_states
+from biplan._compile.setup import jax, jnp
+from biplan.analysis.states import seeding
+from biplan.analysis.states.labels import bistable_folds
+from biplan.analysis.states.search import Enumeration, Search, enumerate_states
 from biplan.solvers._relaxkernel import relax_seed
 
 LOCK_STEP_CHUNK = 16

@@ -28,7 +28,7 @@ def main() -> None:
     args = parser.parse_args()
 
     import biplan
-    from biplan.analysis import quasistatic
+    from biplan.analysis.response import quasistatic
     from biplan.solvers.newton import Newton
 
     model = biplan.Model(biplan.load_config(args.config))

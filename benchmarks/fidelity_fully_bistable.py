@@ -5,14 +5,14 @@ Run:  .venv/bin/python benchmarks/fidelity_fully_bistable.py [--out out/fidelity
       [--tpc-sign as_printed]   (the fit and both enumerations under that reading; the
                                  "inferred" column is then this run's fit)
 
-1. Inverse design (:func:`biplan.analysis.inverse.inverse_design`) from the provisional laws of
+1. Inverse design (:func:`biplan.analysis.sensitivity.inverse.inverse_design`) from the provisional laws of
    ``designs.fully_bistable()``, geometry fixed (the SI Table), to the paper's continuous
    numbers: u_z/l0 = 0.9 for the stable states 66 and 1B (main text, Fig. 4 B), varying the
    ``--vary`` law parameters. Prints the fit (values, residuals, evaluations, time).
 2. ``biplan states`` on both law sets (the inferred ones as shipped,
    ``designs.fully_bistable(laws=FullyBistableLaws.INFERRED_FIG4)``, the fit's values to six digits) (a child process each, like the reproduction's states
    stage) and the reproduction's claims of Fig. 4 and SI S11–S12 on each
-   (:data:`biplan.io.reproduction.CLAIMS`): a table of the verdicts side by side
+   (:data:`biplan.reproduction.claims.CLAIMS`): a table of the verdicts side by side
    (docs/fidelity.md, "Fully bistable laws inferred from Fig. 4").
 """
 
@@ -34,7 +34,7 @@ def _claims(folder: Path, tube: object) -> dict[str, tuple[str, str]]:
     """claim id → (verdict, finding) of the Fig. 4 and SI distribution claims."""
     from biplan.cli.reproduce import state_facts
     from biplan.io.config import dump_config
-    from biplan.io.reproduction import CLAIMS, Results, assess
+    from biplan.reproduction.claims import CLAIMS, Results, assess
 
     folder.mkdir(parents=True, exist_ok=True)
     config = folder / "design.toml"
@@ -61,7 +61,7 @@ def main() -> None:
     vary = tuple(args.vary) if args.vary else VARY
 
     import biplan
-    from biplan.analysis.inverse import inverse_design
+    from biplan.analysis.sensitivity.inverse import inverse_design
     from biplan.io.config import dump_config
     from biplan.options import ChainAttachment, TpcSign
 

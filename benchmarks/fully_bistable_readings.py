@@ -15,7 +15,7 @@ from __future__ import annotations
 import numpy as np
 
 import biplan
-from biplan.analysis.states import enumerate_states
+from biplan.analysis.states.search import enumerate_states
 
 
 def main() -> None:

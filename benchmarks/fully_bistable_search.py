@@ -3,7 +3,7 @@
 The paper gives no laws for its four-module fully bistable MFT. This script samples helical and
 circular trilinear laws in a physically reasonable box (same geometry as SI Table calib; both
 laws bistable; the helical open well inside the kinematic lock of the helical folds, MODEL §16)
-and enumerates the stable states of each sample with :func:`biplan.analysis.states.enumerate_states`.
+and enumerates the stable states of each sample with :func:`biplan.analysis.states.search.enumerate_states`.
 
 Score of a sample (lower is better): |n_stable − 34| + 10 × (number of 00, 2A, 1B, 66 not
 stable). The box and the sample count are the only inputs; nothing is tuned to a figure.
@@ -30,7 +30,7 @@ from pathlib import Path
 import numpy as np
 
 import biplan
-from biplan.analysis.states import enumerate_states
+from biplan.analysis.states.search import enumerate_states
 from biplan.designs import SEMI_BISTABLE_TABLE
 
 KEY_STATES = ("00", "2A", "1B", "66")

@@ -21,9 +21,9 @@ import time
 import numpy as np
 
 import biplan
-from biplan.analysis.grid import apply_values
-from biplan.analysis.quasistatic import displacement_sweep
-from biplan.analysis.response import summarize
+from biplan.analysis.maps.grid import apply_values
+from biplan.analysis.response.quasistatic import displacement_sweep
+from biplan.analysis.response.summary import summarize
 
 
 def run(name: str, tube: biplan.Tube) -> None:

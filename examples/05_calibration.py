@@ -17,14 +17,14 @@ import json
 import os
 from pathlib import Path
 
-from biplan.analysis.calibration import (
+from biplan.calibration.calibrate import (
     CalibrationOptions,
     calibrate_linear,
     calibrate_trilinear,
 )
-from biplan.analysis.fits import CftGeometry
+from biplan.calibration.files import calibration_toml, read_specimens
+from biplan.calibration.fits import CftGeometry
 from biplan.io.config import load_config_text
-from biplan.io.specimens import calibration_toml, read_specimens
 
 QUICK = os.environ.get("BIPLAN_EXAMPLE_QUICK") == "1"
 DATA = Path(__file__).resolve().parent / "data"

@@ -20,13 +20,14 @@ from pathlib import Path
 # The suite shares one persistent JAX compilation cache between its processes (pytest-xdist
 # workers, the CLI child processes of the reproduce test): a kernel compiled by one is loaded by
 # the others. It lives in the checkout (git-ignored), and starts empty on a clean clone. Set
-# before biplan is imported (biplan._jax reads it); child processes inherit it.
+# before biplan is imported (biplan._compile.setup reads it); child processes inherit it.
 os.environ.setdefault(
     "BIPLAN_JAX_CACHE", str(Path(__file__).resolve().parent.parent / ".jax-cache-tests")
 )
 
 # The suite checks numbers, not speed (timings live in benchmarks/): its kernels compile with
-# LLVM's cheap pipeline (biplan._jax; compilation dominates the suite, docs/performance.md,
+# LLVM's cheap pipeline (biplan._compile.setup; compilation dominates the suite,
+# docs/performance.md,
 # "Suite time"). Set before biplan is imported.
 os.environ.setdefault("BIPLAN_FAST_COMPILE", "on")
 
@@ -34,7 +35,7 @@ import numpy as np
 import pytest
 
 import biplan  # enables JAX float64
-from biplan._jax import release_compiled_kernels
+from biplan._compile.setup import release_compiled_kernels
 
 #: Geometry of the SI calibration table (MODEL.md §3, §14).
 GEOMETRY = {"radius": 2.0, "pitch": 3.6, "helical_angle": 60.0}

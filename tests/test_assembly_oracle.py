@@ -1,7 +1,8 @@
 """The local assembly (element blocks + chain term) equals the whole-tube autodiff oracle.
 
-:mod:`biplan.assembly` builds the KKT residual and Jacobian from per-element autodiff
-(:mod:`biplan.elements`); :mod:`biplan._oracle` differentiates one Lagrangian of the whole
+:mod:`biplan.model.assembly` builds the KKT residual and Jacobian from per-element autodiff
+(:mod:`biplan.model.elements`); :mod:`biplan.model.oracle` differentiates one Lagrangian of the
+whole
 chain. They must agree to round-off on every layout and reading: force and displacement
 control, non-zero guide and contact multipliers, active contacts at a solved state, the
 proximal bias, the MINIMUM contact form, the paper's chain offset and the edge-fit chain of the
@@ -16,10 +17,10 @@ import numpy as np
 import pytest
 
 import biplan
-from biplan import _oracle
-from biplan import assembly as asm
-from biplan._jax import jax, jnp, kernel_options
+from biplan._compile.setup import jax, jnp, kernel_options
 from biplan.geometry import chain
+from biplan.model import assembly as asm
+from biplan.model import oracle as _oracle
 from biplan.options import ChainOffset, ContactForm, ModelOptions, TpcSign
 from conftest import make_tube, random_configuration
 

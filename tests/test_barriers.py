@@ -14,15 +14,15 @@ import numpy as np
 import pytest
 
 import biplan
-from biplan.analysis.barriers import (
+from biplan.analysis.stability import classify
+from biplan.analysis.states.barriers import (
     MepStatus,
     NudgedElasticBand,
     edge_barriers,
     minimum_energy_path,
 )
-from biplan.analysis.deflation import Deflation, deflate
-from biplan.analysis.departure import DepartureStatus, Ramp, departure_force
-from biplan.analysis.stability import classify
+from biplan.analysis.states.deflation import Deflation, deflate
+from biplan.analysis.states.departure import DepartureStatus, Ramp, departure_force
 from biplan.solvers.newton import Status, make_solution
 
 
@@ -159,8 +159,8 @@ def test_deflation_finds_the_saddle_between_two_wells(model1, states1):
 def test_deflated_jacobian_is_the_derivative_and_gives_the_sherman_morrison_step(model1, states1):
     """The deflated system's Jacobian M J + r ∇Mᵀ equals central finite differences of M r, and
     its Newton step is the undeflated step d scaled by 1 / (1 − ∇η · d_q)."""
-    from biplan._jax import jax, jnp
-    from biplan.analysis.deflation import deflated_system
+    from biplan._compile.setup import jax, jnp
+    from biplan.analysis.states.deflation import deflated_system
 
     nq = model1.n_coordinates
     roots = np.stack([s.z[:nq] for s in states1])

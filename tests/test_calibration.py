@@ -1,7 +1,7 @@
 """Calibration of fold laws from specimen curves: data checks, statistics, fits, bootstrap.
 
 Synthetic specimens come from known laws with specimen-to-specimen scatter and noise
-(:mod:`biplan.analysis.synthetic`: 10 specimens, 5 % log-normal scatter of the stiffnesses, 4 %
+(:mod:`biplan.calibration.synthetic`: 10 specimens, 5 % log-normal scatter of the stiffnesses, 4 %
 of the breakpoints, 0.02 N force noise, 100–150 samples per segment). Stated tolerances
 (relative, per fit, about 3 SD of the spread over 100 seeds in docs/calibration.md): k1 6 %,
 k2 15 %, k3 12 %, l1 6 %, l2 5 %.
@@ -24,7 +24,7 @@ import pytest
 from scipy.optimize import minimize
 
 import biplan
-from biplan.analysis.calibration import (
+from biplan.calibration.calibrate import (
     Breakpoints,
     CalibrationOptions,
     CaveatKind,
@@ -32,18 +32,18 @@ from biplan.analysis.calibration import (
     calibrate_trilinear,
     force_drop,
 )
-from biplan.analysis.fits import CftGeometry, cft_force, fit_linear, fit_trilinear
-from biplan.analysis.specimens import Segment, Specimen, band_statistics, segment_problem
-from biplan.analysis.synthetic import Scatter, synthetic_specimens
-from biplan.analysis.validation import compare_to_band
-from biplan.io.config import load_config_text
-from biplan.io.specimens import (
+from biplan.calibration.files import (
     DataError,
     SpecimenFormat,
     calibration_toml,
     read_specimen,
     read_specimens,
 )
+from biplan.calibration.fits import CftGeometry, cft_force, fit_linear, fit_trilinear
+from biplan.calibration.specimens import Segment, Specimen, band_statistics, segment_problem
+from biplan.calibration.synthetic import Scatter, synthetic_specimens
+from biplan.calibration.validation import compare_to_band
+from biplan.io.config import load_config_text
 from biplan.plot import calibration_band, validation_band
 
 TRUTH = biplan.TrilinearLaw(stiffness=(0.9, -0.2, 0.6), transitions=(0.2, 1.3))

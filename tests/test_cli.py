@@ -94,7 +94,7 @@ def test_demo_exits_cleanly_and_summarises(demo_run) -> None:
     heads = re.findall(r"[Pp]hase.1 peak force ([\d.]+) ± (\S+) N", text)
     assert len(heads) == 2 and heads[0][0] == heads[1][0], text
     import biplan
-    from biplan.analysis.loadcontrol import first_snap
+    from biplan.analysis.response.loadcontrol import first_snap
 
     peak = first_snap(biplan.Model(biplan.designs.semi_bistable()))
     assert peak is not None and f"{peak.force:.4f}" == heads[0][0]

@@ -30,18 +30,18 @@ def _forbidden(*_: object, **__: object) -> None:
 @pytest.fixture
 def no_solve(monkeypatch: pytest.MonkeyPatch) -> None:
     """Building a model, a sweep, a state enumeration, a fit or reading a result fails."""
-    import biplan.analysis.calibration
-    import biplan.analysis.quasistatic
-    import biplan.analysis.states
-    import biplan.analysis.sweeps
+    import biplan.analysis.maps.sweeps
+    import biplan.analysis.response.quasistatic
+    import biplan.analysis.states.search
+    import biplan.calibration.calibrate
     import biplan.cli.reproduce
     import biplan.io.results
 
     monkeypatch.setattr(biplan, "Model", _forbidden)
-    monkeypatch.setattr(biplan.analysis.sweeps, "sweep", _forbidden)
-    monkeypatch.setattr(biplan.analysis.states, "enumerate_states", _forbidden)
-    monkeypatch.setattr(biplan.analysis.quasistatic, "displacement_sweep", _forbidden)
-    monkeypatch.setattr(biplan.analysis.calibration, "calibrate_trilinear", _forbidden)
+    monkeypatch.setattr(biplan.analysis.maps.sweeps, "sweep", _forbidden)
+    monkeypatch.setattr(biplan.analysis.states.search, "enumerate_states", _forbidden)
+    monkeypatch.setattr(biplan.analysis.response.quasistatic, "displacement_sweep", _forbidden)
+    monkeypatch.setattr(biplan.calibration.calibrate, "calibrate_trilinear", _forbidden)
     monkeypatch.setattr(biplan.io.results, "load_result", _forbidden)
     monkeypatch.setattr(biplan.cli.reproduce, "run_stages", _forbidden)
 
@@ -334,7 +334,7 @@ def test_large_tube_warns_with_its_cost_before_the_work(
 ) -> None:
     """Loading a 200-module tube warns (CostWarning, with the estimate); the CLI prints it as
     one line before anything else happens (here a refused --max-points)."""
-    from biplan.analysis.cost import tube_cost
+    from biplan.analysis.maps.cost import tube_cost
 
     large = _tube_file(tmp_path, 200)
     with pytest.warns(biplan.CostWarning, match=r"geometry.n_modules = 200 is a large tube"):
@@ -374,8 +374,8 @@ def test_grid_beyond_max_points_is_refused_with_its_cost(
 
 
 def test_long_grid_is_warned_of_with_its_cost(capsys: pytest.CaptureFixture[str]) -> None:
-    from biplan.analysis.design_map import ResponseEvaluator
-    from biplan.analysis.sweeps import Grid
+    from biplan.analysis.maps.design_map import ResponseEvaluator
+    from biplan.analysis.maps.sweeps import Grid
     from biplan.cli.maps import WARN_SECONDS, check_size
 
     tube, ev = biplan.load_config(CONFIG), ResponseEvaluator()
@@ -391,7 +391,7 @@ def test_long_grid_is_warned_of_with_its_cost(capsys: pytest.CaptureFixture[str]
 
 
 def test_cost_estimates_follow_the_measurements() -> None:
-    from biplan.analysis.cost import (
+    from biplan.analysis.maps.cost import (
         MAP_POINT_RATE,
         MEASURED_TUBES,
         duration,
@@ -443,9 +443,9 @@ def _catalogue(
 ) -> Path:
     """A states.nc of the tube of ``config`` (``edit`` replaces a string of its text) written
     as ``biplan states`` writes it, with made-up states ``names`` (no solve)."""
-    from biplan.analysis.catalogue import StateCatalogue
-    from biplan.analysis.labels import bistable_folds, label_to_bits
-    from biplan.analysis.states import Enumeration, SeedOutcome, StableState
+    from biplan.analysis.states.catalogue import StateCatalogue
+    from biplan.analysis.states.labels import bistable_folds, label_to_bits
+    from biplan.analysis.states.search import Enumeration, SeedOutcome, StableState
     from biplan.io.config import dump_config, load_config_text
 
     text = config.read_text()
@@ -507,18 +507,18 @@ def test_path_reads_the_catalogue_and_names_folds_as_the_files_do(
 ) -> None:
     """``--states`` replaces the enumeration; each step names its fold as the result files do
     (modules from 1): 2B → 2A switches bit 6 (H₁, "helical 1"), 2A → 0A bit 1 (C₃|₄)."""
-    import biplan.analysis.states
-    import biplan.analysis.transitions
+    import biplan.analysis.states.search
+    import biplan.analysis.states.transitions
 
     file = _catalogue(tmp_path)
-    monkeypatch.setattr(biplan.analysis.states, "enumerate_states", _forbidden)
+    monkeypatch.setattr(biplan.analysis.states.search, "enumerate_states", _forbidden)
 
     def barriers(graph, model, catalogue, edges=None, neb=None, departure=False):  # type: ignore[no-untyped-def]
         for u, v in edges:
             graph.edges[u, v].update(forward_from=u, saddle_energy=9.0, mep_status="CONVERGED")
         return graph
 
-    monkeypatch.setattr(biplan.analysis.transitions, "annotate_barriers", barriers)
+    monkeypatch.setattr(biplan.analysis.states.transitions, "annotate_barriers", barriers)
     main_exit = None
     try:
         main([str(a) for a in ["path", FULLY, "2b", "0a", "--states", file, "-q"]])
@@ -613,7 +613,7 @@ def test_state_names_are_read_in_any_case() -> None:
 def _fake_ramp(monkeypatch: pytest.MonkeyPatch, status: list[int]) -> list[int]:
     """Replace the batched force ramp by one that returns ``status`` (by point, in order) and
     zeros; returns the list of batch sizes it was called with."""
-    from biplan.analysis.design_map import ResponseEvaluator
+    from biplan.analysis.maps.design_map import ResponseEvaluator
 
     calls: list[int] = []
     codes = iter(status)

@@ -16,7 +16,7 @@ import numpy as np
 import pytest
 
 import biplan
-from biplan.assembly import Load
+from biplan.model.assembly import Load
 from biplan.solvers.continuation import FULL_CONTACT_PENETRATION
 from biplan.solvers.newton import Status, make_solution
 from biplan.solvers.observe import observe_batch

@@ -12,7 +12,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from biplan._jax import jax, jnp
+from biplan._compile.setup import jax, jnp
 from biplan.solvers.core import (
     Settings,
     Status,

@@ -17,11 +17,11 @@ import numpy as np
 import pytest
 
 import biplan
-from biplan._jax import jax, jnp, kernel_options
+from biplan._compile.setup import jax, jnp, kernel_options
 from biplan.analysis.modes import natural_modes, rayleigh_for_damping_ratio
-from biplan.analysis.ramp_dynamics import continue_ramp
-from biplan.assembly import Load
-from biplan.inertia import inertia_force
+from biplan.analysis.response.ramp_dynamics import continue_ramp
+from biplan.model.assembly import Load
+from biplan.model.inertia import inertia_force
 from biplan.solvers import BackwardEuler, ControlKind
 from biplan.solvers import _dynkernel as dk
 from biplan.solvers.dynamics import mass_matrix_at

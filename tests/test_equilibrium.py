@@ -443,8 +443,8 @@ def test_watchdog_returns_the_best_of_its_free_steps(model1):
     """With free steps the iterates are those of plain Newton; a solve whose free steps run
     out unconverged goes back to the iterate of smallest merit ½‖r‖² (here it also hits the
     step limit, so that is what it returns)."""
-    from biplan._jax import jnp
-    from biplan.assembly import kernels
+    from biplan._compile.setup import jnp
+    from biplan.model.assembly import kernels
 
     kk = kernels(model1.layout)
     rng = np.random.default_rng(3)
@@ -470,7 +470,7 @@ def test_watchdog_reaches_the_same_equilibrium_with_fewer_residuals(model6, refe
     """Off the relaxed reference every contact touches (gap 0) and the merit of the smoothed
     Fischer–Burmeister rows is so curved that the line search rejects converging full steps;
     the watchdog takes them (the design map's first load steps, docs/maps.md)."""
-    from biplan._jax import jnp
+    from biplan._compile.setup import jnp
     from biplan.solvers.newton import solve_loop
 
     load = Load(jnp.asarray(0.1), jnp.asarray(0.0), jnp.asarray(0.0))
@@ -490,7 +490,7 @@ def test_traced_watchdog_of_length_zero_takes_the_plain_iterates(model1):
     length 0 it takes exactly the iterates of the loop compiled without a watchdog."""
     import functools
 
-    from biplan._jax import jax, jnp, kernel_options
+    from biplan._compile.setup import jax, jnp, kernel_options
     from biplan.solvers.newton import newton_loop, solve_loop
 
     plain = jax.jit(functools.partial(newton_loop, model1.layout, free_steps=0),

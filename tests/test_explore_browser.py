@@ -39,7 +39,7 @@ def catalogue_html(tmp_path_factory: pytest.TempPathFactory) -> Path:
 
 
 def test_catalogue_page(browser: Any, catalogue_html: Path, model4: biplan.Model) -> None:
-    from biplan.analysis.transitions import pathway
+    from biplan.analysis.states.transitions import pathway
 
     page, errors = open_page(browser, catalogue_html)
     for div in ("graph", "endpoint", "tube", "development"):
@@ -117,7 +117,7 @@ def test_response_page(browser: Any, model4: biplan.Model, tmp_path: Path) -> No
 def test_least_barrier_pathway(browser: Any, tmp_path: Path) -> None:
     """With barriers on the edges (transitions.graphml beside the catalogue), the pathway
     "by least total barrier" climbs as little in total as networkx's."""
-    from biplan.analysis.transitions import barrier_weight, pathway
+    from biplan.analysis.states.transitions import barrier_weight, pathway
 
     graph = nx.read_graphml(STATES.parent / "transitions.graphml")
     rng = np.random.default_rng(7)

@@ -7,10 +7,10 @@ import numpy as np
 import pytest
 
 import biplan
-from biplan.analysis.grid import Grid, apply_values
-from biplan.analysis.instability_map import CRITICAL, InstabilityEvaluator
-from biplan.analysis.loadcontrol import first_snap
-from biplan.analysis.sweeps import sweep
+from biplan.analysis.maps.grid import Grid, apply_values
+from biplan.analysis.maps.instability_map import CRITICAL, InstabilityEvaluator
+from biplan.analysis.maps.sweeps import sweep
+from biplan.analysis.response.loadcontrol import first_snap
 from conftest import make_tube
 
 

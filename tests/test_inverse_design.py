@@ -14,8 +14,8 @@ import pandas as pd
 import pytest
 
 import biplan
-from biplan.analysis.inverse import Target, inverse_design
-from biplan.analysis.limit_point import locate_limit_point
+from biplan.analysis.sensitivity.inverse import Target, inverse_design
+from biplan.analysis.sensitivity.limit_point import locate_limit_point
 from biplan.cli.main import EXIT_BIPLAN_ERROR, main
 from biplan.io.config import dump_config, load_config
 from conftest import make_tube
@@ -88,7 +88,7 @@ def test_stiffness_scaling_closed_form(n_modules):
 def test_named_state_round_trip(model4):
     """Fully bistable tube: move the circular spinodal end (1.3 → 1.5 mm) and ask for the
     original u_z/l0 of the all-circular-open state 2A; the fit recovers 1.3 mm."""
-    from biplan.analysis.states import relax_state
+    from biplan.analysis.states.search import relax_state
 
     state = relax_state(model4, "2A")
     wanted = model4.endpoint(state.q).u_z / model4.tube.initial_length
@@ -110,7 +110,7 @@ def test_named_state_round_trip(model4):
 def test_semi_bistable_round_trip_at_1_6_n(model6):
     """The paper's design: perturb k_h (1.3 → 1.5) and k₁ (0.9 → 1.0), ask for the original
     u_z and u_r at F = 1.6 N, recover the original laws."""
-    from biplan.analysis.reached import reached_state
+    from biplan.analysis.response.reached import reached_state
 
     load = biplan.Load.of_force(1.6)
     e = model6.endpoint(reached_state(model6, load).q)
@@ -209,10 +209,10 @@ def test_cli_unmet_target_exits_1_with_the_best_design(tmp_path: Path, capsys, m
     ],
 )
 def test_cli_refuses_bad_requests(tmp_path: Path, capsys, monkeypatch, extra, needle):
-    import biplan.analysis.inverse
+    import biplan.analysis.sensitivity.inverse
 
     monkeypatch.setattr(
-        biplan.analysis.inverse, "inverse_design", lambda *a, **k: pytest.fail("solved")
+        biplan.analysis.sensitivity.inverse, "inverse_design", lambda *a, **k: pytest.fail("solved")
     )
     config = tmp_path / "one.toml"
     config.write_text(dump_config(make_tube(1)))

@@ -9,7 +9,7 @@ import sys
 import numpy as np
 import pytest
 
-from biplan._jax import (
+from biplan._compile.setup import (
     CHEAP_PIPELINE,
     LIGHT_PIPELINE,
     jax,
@@ -64,7 +64,7 @@ def test_release_compiled_kernels_frees_memory_maps():
 
 
 def test_cache_entries_without_access_time_are_stamped(tmp_path):
-    from biplan._jax import _stamp_unlocked_entries
+    from biplan._compile.setup import _stamp_unlocked_entries
 
     (tmp_path / "jit_f-abc-cache").write_bytes(b"executable")
     (tmp_path / "jit_g-def-cache").write_bytes(b"executable")
@@ -86,7 +86,7 @@ def test_a_load_reaches_a_kernel_with_one_input_type(model1):
     traced once for both), and arrays pass through."""
     import numpy as np
 
-    from biplan.assembly import Load
+    from biplan.model.assembly import Load
 
     py, npy = Load.of_force(0.3).for_kernel(), Load.of_force(np.float64(0.3)).for_kernel()
     assert [jax.typeof(v) for v in py] == [jax.typeof(v) for v in npy]
@@ -128,7 +128,7 @@ def test_import_help_and_version_load_no_jax():
 
 _BLAS_PROBE = (
     "import os, numpy, scipy.linalg\n"
-    "import biplan.assembly\n"
+    "import biplan.model.assembly\n"
     "from threadpoolctl import threadpool_info\n"
     "blas = [i for i in threadpool_info() if i['user_api'] == 'blas']\n"
     "assert blas, threadpool_info()\n"
@@ -137,7 +137,7 @@ _BLAS_PROBE = (
 
 
 def _probe(**variables: str) -> subprocess.CompletedProcess[str]:
-    from biplan._jax import BLAS_THREAD_VARIABLES
+    from biplan._compile.setup import BLAS_THREAD_VARIABLES
 
     env = {k: v for k, v in os.environ.items() if k not in BLAS_THREAD_VARIABLES}
     env.pop("BIPLAN_BLAS_THREADS", None)

@@ -1,4 +1,5 @@
-"""The kernel store (``biplan._kernels``): kernels exported once, reloaded without tracing."""
+"""The kernel store (``biplan._compile.kernel``): kernels exported once, reloaded without
+tracing."""
 
 from __future__ import annotations
 
@@ -13,10 +14,11 @@ from typing import NamedTuple
 import numpy as np
 import pytest
 
-from biplan import _jax, _kernels
-from biplan._jax import jax, jnp, kernel_options
-from biplan._kernels import StoredKernel, stored_jit
-from biplan.assembly import Load, residual
+from biplan._compile import kernel as _kernels
+from biplan._compile import setup as _jax
+from biplan._compile.kernel import StoredKernel, stored_jit
+from biplan._compile.setup import jax, jnp, kernel_options
+from biplan.model.assembly import Load, residual
 
 
 class Pair(NamedTuple):
@@ -117,8 +119,8 @@ def test_a_model_kernel_equals_the_jit_of_its_function(model1) -> None:
 
 SCRIPT = """
 import numpy as np
-from biplan import _kernels
-from biplan._jax import jnp
+from biplan._compile import kernel as _kernels
+from biplan._compile.setup import jnp
 def f(p, x):
     return {"y": jnp.sin(x) * p}
 if {refuse}:
@@ -148,8 +150,8 @@ def test_a_later_process_reads_the_kernel_without_tracing(tmp_path: Path) -> Non
 
 RACE = """
 import sys, time
-from biplan import _kernels
-from biplan._jax import jnp
+from biplan._compile import kernel as _kernels
+from biplan._compile.setup import jnp
 def f(x):
     print("traced", file=sys.stderr, flush=True)
     time.sleep(2.0)  # a slow trace: without the lock both processes would trace
@@ -199,7 +201,7 @@ def test_a_held_entry_lock_is_waited_for_then_passed(tmp_path: Path, monkeypatch
 def test_release_compiled_kernels_drops_the_stored_executables(store) -> None:
     """The memory-map guard (``release_compiled_kernels``) reaches the executables that
     stored kernels hold; the next call rebuilds them from the store."""
-    from biplan._jax import release_compiled_kernels
+    from biplan._compile.setup import release_compiled_kernels
 
     params, x = {"c": jnp.asarray(3.0)}, np.ones(2)
     kernel = stored_jit(_cubic, "cubic")

@@ -1,4 +1,5 @@
-"""What a load-controlled test does (:func:`biplan.analysis.loadcontrol.load_response`), and
+"""What a load-controlled test does (:func:`biplan.analysis.response.loadcontrol.load_response`),
+and
 the numerical path that is not one (:func:`biplan.trace_path` never runs back past its start).
 
 Physics checked: every recorded state is a stable equilibrium (reduced Hessian), the force is
@@ -18,9 +19,9 @@ import numpy as np
 import pytest
 
 import biplan
-from biplan.analysis.loadcontrol import first_snap, load_response
-from biplan.analysis.response import softening_steps, summarize
-from biplan.geometry import Tube
+from biplan.analysis.response.loadcontrol import first_snap, load_response
+from biplan.analysis.response.summary import softening_steps, summarize
+from biplan.model.tube import Tube
 from biplan.solvers.results import PathStatus
 
 ROOT = Path(__file__).resolve().parents[1]

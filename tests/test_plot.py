@@ -15,7 +15,7 @@ from matplotlib.axes import Axes
 from matplotlib.collections import LineCollection
 
 import biplan
-from biplan.analysis.quasistatic import displacement_sweep
+from biplan.analysis.response.quasistatic import displacement_sweep
 from biplan.plot import cylinder, development, elongation_norm, fold_lines, force_displacement
 from biplan.plot.tube import ARC_SUBDIVISIONS, ELEMENT_NODES, element_strips
 

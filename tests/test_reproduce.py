@@ -22,7 +22,7 @@ import xarray as xr
 
 from biplan.cli.main import main
 from biplan.cli.reproduce import FIGURE_FILES
-from biplan.io.reproduction import (
+from biplan.reproduction.claims import (
     CLAIMS,
     CalibrationFacts,
     MovieFacts,

@@ -8,7 +8,7 @@ from types import SimpleNamespace
 import numpy as np
 import pytest
 
-from biplan.analysis.response import summarize
+from biplan.analysis.response.summary import summarize
 
 
 def _curve(force, stable=None, switched=None, step: float = 0.2) -> SimpleNamespace:
@@ -66,9 +66,9 @@ def test_state_at_the_terminal_force_is_interpolated() -> None:
 def test_phase_one_is_one_definition() -> None:
     """``summarize``, the demo's snapshots and the reproduce report end phase 1 at the same
     step: the first failure, instability, snap or stable fall of the force."""
-    from biplan.analysis.response import phase_one_end
+    from biplan.analysis.response.summary import phase_one_end
     from biplan.cli.demo import phase_one
-    from biplan.io.reproduction import SemiBistableFacts
+    from biplan.reproduction.claims import SemiBistableFacts
 
     cases = {
         "softening": ([1.0, 2.0, 3.0, 2.5, 9.0], [1] * 5, [0] * 5, 3),

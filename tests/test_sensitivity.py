@@ -16,10 +16,13 @@ import pandas as pd
 import pytest
 
 import biplan
-from biplan.analysis._parameters import AngleParameter, design_parameters
-from biplan.analysis.finite_differences import finite_differences, limit_point_finite_differences
-from biplan.analysis.limit_point import limit_point_sensitivity, locate_limit_point
-from biplan.analysis.sensitivity import Method, Observable, eigen_weights, sensitivity
+from biplan.analysis.sensitivity.equilibrium import Method, Observable, eigen_weights, sensitivity
+from biplan.analysis.sensitivity.finite_differences import (
+    finite_differences,
+    limit_point_finite_differences,
+)
+from biplan.analysis.sensitivity.limit_point import limit_point_sensitivity, locate_limit_point
+from biplan.analysis.sensitivity.parameters import AngleParameter, design_parameters
 from biplan.cli.main import EXIT_BIPLAN_ERROR, main
 from biplan.io.config import dump_config
 from conftest import make_tube
@@ -167,7 +170,7 @@ def test_limit_point_derivatives_match_located_limit_points(model1):
     values = np.asarray([p.value for p in exact.parameters])
     assert_matches(exact.derivatives, fd.derivatives, values)
     # the located F* is the force-controlled response's first snap, to its tolerance
-    snap = biplan.analysis.loadcontrol.first_snap(model1)
+    snap = biplan.analysis.response.loadcontrol.first_snap(model1)
     assert snap is not None
     assert limit.force == pytest.approx(snap.force, abs=max(snap.tolerance, 1e-6) * 10)
 
@@ -233,7 +236,7 @@ def test_limit_point_of_the_semi_bistable_design(model6):
     """The paper's design snaps back: a full Newton step on U lands past the turn of the
     displacement-controlled branch, where no equilibrium exists, and is halved. The search ends
     at λ_min^F = 0, at least first_snap's force (its last stable state before the peak)."""
-    from biplan.analysis.loadcontrol import first_snap
+    from biplan.analysis.response.loadcontrol import first_snap
 
     limit = locate_limit_point(model6)
     snap = first_snap(model6)

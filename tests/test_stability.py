@@ -35,7 +35,7 @@ def symmetric_path(model6, reference6):
 
 def _circular_fractions(model, q) -> np.ndarray:
     """(closed, spinodal, open) length fractions of every circular fold, (Nc, 3)."""
-    frac = biplan.assembly.phase_fractions(model.layout, model.params, q)
+    frac = biplan.model.assembly.phase_fractions(model.layout, model.params, q)
     return np.asarray(frac)[model.layout.n_modules :]
 
 
@@ -121,8 +121,8 @@ def test_series_criterion_decides_snap_or_stable_softening(model2, k2):
       force falls with dF/dU = H/(1/k₂ + 1/k₁) and λ_min(H_r) = H (k₁ + k₂)/2 (the Hessian
       diag(H k₁, H k₂) on the plane dw₁ + dw₂ = 0): no snap;
     * |k₂| > k₁: positive — a snap-back, which displacement control passes by a snap."""
-    from biplan.analysis.quasistatic import displacement_sweep
-    from biplan.analysis.response import summarize
+    from biplan.analysis.response.quasistatic import displacement_sweep
+    from biplan.analysis.response.summary import summarize
 
     k1 = 0.9
     law = biplan.TrilinearLaw(stiffness=(k1, k2, 0.6), transitions=(0.2, 1.3))
@@ -336,7 +336,7 @@ def test_relax_from_the_symmetric_saddle_opens_one_fold(model6, symmetric_path):
     same U with lower energy, in which one circular fold has snapped to its open branch. The
     inexact sub-problems (the default) and exact ones (every sub-problem to ``atol``) end in the
     same equilibrium, and both give up in the other sense."""
-    from biplan.analysis.quasistatic import relax
+    from biplan.analysis.response.quasistatic import relax
     from biplan.analysis.stability import reduced_hessian
 
     saddle = symmetric_path[2.0]
@@ -378,7 +378,7 @@ def test_relax_from_the_symmetric_saddle_opens_one_fold(model6, symmetric_path):
 
 @pytest.mark.parametrize(("name", "value"), [("sub_steps", 0), ("sub_tolerance", -1.0)])
 def test_relax_rejects_bad_settings(model1, name, value):
-    from biplan.analysis.quasistatic import relax
+    from biplan.analysis.response.quasistatic import relax
 
     start = biplan.solve_equilibrium(model1, Newton(), model1.zeros())
     with pytest.raises(ConfigError, match=name):

@@ -9,12 +9,12 @@ import numpy as np
 import pytest
 
 import biplan
-from biplan._jax import jax, jnp
-from biplan.analysis import seeding
-from biplan.analysis.labels import bistable_folds
-from biplan.analysis.states import Enumeration, Search, enumerate_states
-from biplan.assembly import kernels
+from biplan._compile.setup import jax, jnp
+from biplan.analysis.states import seeding
+from biplan.analysis.states.labels import bistable_folds
+from biplan.analysis.states.search import Enumeration, Search, enumerate_states
 from biplan.io.sweepstore import ChunkStore
+from biplan.model.assembly import kernels
 from biplan.solvers._relaxkernel import relax_pool, relax_seed
 
 #: Small chunks for the two-module tube (8 seeds → two chunks of four; one compilation).
@@ -206,7 +206,7 @@ def test_states_command_checks_the_search_request_first(tmp_path, monkeypatch, c
 @pytest.mark.parametrize("which", ["fully_bistable_2", "base_fold_1"])
 def test_at_rest_assembly_equals_the_general_one_at_zero_load(which, model2fb, model1):
     """The polish of the searches drops the load point's terms at rest: same r and KKT J."""
-    from biplan import assembly
+    from biplan.model import assembly
 
     model = model2fb if which == "fully_bistable_2" else model1
     zero = assembly.Load.of_force(0.0).for_kernel()

@@ -9,18 +9,18 @@ import numpy as np
 import pytest
 
 import biplan
-from biplan.analysis.catalogue import StateCatalogue
-from biplan.analysis.hierarchy import hierarchy
-from biplan.analysis.labels import (
+from biplan.analysis.states.catalogue import StateCatalogue
+from biplan.analysis.states.hierarchy import hierarchy
+from biplan.analysis.states.labels import (
     bistable_folds,
     bits_to_label,
     hamming,
     label_to_bits,
     physical_folds,
 )
-from biplan.analysis.states import enumerate_states, relax_state, state_bits
-from biplan.analysis.transitions import pathway, transition_graph, write_graphml
-from biplan.assembly import kernels
+from biplan.analysis.states.search import enumerate_states, relax_state, state_bits
+from biplan.analysis.states.transitions import pathway, transition_graph, write_graphml
+from biplan.model.assembly import kernels
 
 RESIDUAL_TOL = 1e-7
 

@@ -17,8 +17,8 @@ import pytest
 
 import biplan
 from biplan import ConfigError, LinearLaw, TrilinearLaw
-from biplan.analysis.design_map import ForceRamp, ResponseEvaluator, response_point
-from biplan.analysis.stability_map import (
+from biplan.analysis.maps.design_map import ForceRamp, ResponseEvaluator, response_point
+from biplan.analysis.maps.stability_map import (
     StabilityEvaluator,
     StabilitySearch,
     points_per_kernel,
@@ -26,7 +26,7 @@ from biplan.analysis.stability_map import (
     stability_chunk_size,
     transition_band,
 )
-from biplan.analysis.sweeps import (
+from biplan.analysis.maps.sweeps import (
     QUANTITIES,
     STATUS,
     Grid,
@@ -396,7 +396,7 @@ def test_ramp_past_the_fold_capacity_is_finished_dynamically(model1) -> None:
     for key in ("u_z", "u_r", "min_eigenvalue"):
         assert dyn[key].values[1] == pytest.approx(ref[key], rel=1e-7, abs=1e-12)
     assert ref["status"] == 0 and ref["dynamic"] == 1
-    from biplan.analysis.ramp_dynamics import continue_ramp
+    from biplan.analysis.response.ramp_dynamics import continue_ramp
 
     model = biplan.Model(tube)
     dt = 2.0 / 16
@@ -422,7 +422,7 @@ def test_dynamic_finish_falls_back_to_backward_euler(model1, monkeypatch) -> Non
     and returns that run (its ``scheme`` names it; the map then marks the point 2)."""
     from types import SimpleNamespace
 
-    from biplan.analysis import ramp_dynamics
+    from biplan.analysis.response import ramp_dynamics
     from biplan.solvers import BackwardEuler
     from biplan.solvers.results import TrajectoryStatus
 

@@ -81,7 +81,7 @@ def trajectory_ds(model6, path_states):
 def test_phase_map_of_a_sweep_is_drawn_over_the_displacement(path_ds) -> None:
     """A stable-branch sweep's U only grows, so its phase map runs over U; a path's (which may
     turn back at limit points) over the step index."""
-    from biplan.analysis.quasistatic import SWEEP_KIND
+    from biplan.analysis.response.quasistatic import SWEEP_KIND
 
     assert phase_fractions(path_ds).get_xlabel() == "step"
     sweep = path_ds.assign_attrs(kind=SWEEP_KIND)

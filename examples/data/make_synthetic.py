@@ -24,9 +24,9 @@ from pathlib import Path
 import numpy as np
 
 import biplan
-from biplan.analysis.fits import CftGeometry
-from biplan.analysis.specimens import Segment, Specimen
-from biplan.analysis.synthetic import Scatter, sample_segment, synthetic_specimens
+from biplan.calibration.fits import CftGeometry
+from biplan.calibration.specimens import Segment, Specimen
+from biplan.calibration.synthetic import Scatter, sample_segment, synthetic_specimens
 
 HERE = Path(__file__).resolve().parent
 #: True laws (SI Table calib) and specimen geometry (R = 2 mm, one circular fold).
@@ -96,7 +96,7 @@ def cft_datasets(out: Path) -> None:
 
 def mft_dataset(out: Path, steps: int = 115) -> None:
     """Five MFT specimens from biplan's prediction of the semi-bistable design."""
-    from biplan.analysis.quasistatic import displacement_sweep
+    from biplan.analysis.response.quasistatic import displacement_sweep
 
     tube = biplan.load_config(HERE.parent / "semi_bistable.toml")
     model = biplan.Model(tube)

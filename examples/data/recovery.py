@@ -5,7 +5,7 @@ Run from the repository root (about a minute)::
     python examples/data/recovery.py --seeds 100
 
 For each seed, 10 synthetic specimens are drawn from the true law with the scatter and noise
-of ``make_synthetic.py`` (``biplan.analysis.synthetic``), the law is calibrated (bootstrap of
+of ``make_synthetic.py`` (``biplan.calibration.synthetic``), the law is calibrated (bootstrap of
 200 resamples, 95 % percentile intervals), and the relative errors and the interval coverage
 are collected. Prints Markdown tables: mean and SD of the relative error, largest |error|, and
 the fraction of the seeds whose interval covers the truth.
@@ -18,13 +18,13 @@ import argparse
 import numpy as np
 
 import biplan
-from biplan.analysis.calibration import (
+from biplan.calibration.calibrate import (
     Breakpoints,
     CalibrationOptions,
     calibrate_linear,
     calibrate_trilinear,
 )
-from biplan.analysis.synthetic import Scatter, synthetic_specimens
+from biplan.calibration.synthetic import Scatter, synthetic_specimens
 
 TRILINEAR = biplan.TrilinearLaw(stiffness=(0.9, -0.2, 0.6), transitions=(0.2, 1.3))
 LINEAR = biplan.LinearLaw(stiffness=1.3)

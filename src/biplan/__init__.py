@@ -23,22 +23,24 @@ if TYPE_CHECKING:
     from biplan._errors import ConfigError as ConfigError
     from biplan._errors import ConvergenceError as ConvergenceError
     from biplan._errors import CostWarning as CostWarning
-    from biplan.analysis.limit_point import limit_point_sensitivity as limit_point_sensitivity
-    from biplan.analysis.sensitivity import Sensitivity as Sensitivity
-    from biplan.analysis.sensitivity import sensitivity as sensitivity
+    from biplan.analysis.sensitivity.equilibrium import Sensitivity as Sensitivity
+    from biplan.analysis.sensitivity.equilibrium import sensitivity as sensitivity
+    from biplan.analysis.sensitivity.limit_point import (
+        limit_point_sensitivity as limit_point_sensitivity,
+    )
     from biplan.analysis.stability import Stability as Stability
     from biplan.analysis.stability import Verdict as Verdict
     from biplan.analysis.stability import classify as classify
     from biplan.analysis.stability import reduced_hessian as reduced_hessian
-    from biplan.assembly import Load as Load
-    from biplan.assembly import Model as Model
     from biplan.geometry import Development as Development
     from biplan.geometry import FoldRef as FoldRef
-    from biplan.geometry import Tube as Tube
     from biplan.io.config import load_config as load_config
     from biplan.laws import LinearLaw as LinearLaw
     from biplan.laws import TransitionReading as TransitionReading
     from biplan.laws import TrilinearLaw as TrilinearLaw
+    from biplan.model.assembly import Load as Load
+    from biplan.model.assembly import Model as Model
+    from biplan.model.tube import Tube as Tube
     from biplan.options import ModelOptions as ModelOptions
     from biplan.solvers import ArcLength as ArcLength
     from biplan.solvers import Control as Control
@@ -59,24 +61,24 @@ if TYPE_CHECKING:
 
 #: Public name → the module that defines it. Imported on first access (PEP 562), so that
 #: ``import biplan`` loads neither JAX nor the model and sets no process-wide state; the JAX
-#: set-up (:func:`biplan._jax.configure`) runs when the numerical core is first imported.
+#: set-up (:func:`biplan._compile.setup.configure`) runs when the numerical core is first imported.
 _EXPORTS = {
     "BiplanError": "biplan._errors",
     "ConfigError": "biplan._errors",
     "ConvergenceError": "biplan._errors",
     "CostWarning": "biplan._errors",
-    "limit_point_sensitivity": "biplan.analysis.limit_point",
-    "Sensitivity": "biplan.analysis.sensitivity",
-    "sensitivity": "biplan.analysis.sensitivity",
+    "limit_point_sensitivity": "biplan.analysis.sensitivity.limit_point",
+    "Sensitivity": "biplan.analysis.sensitivity.equilibrium",
+    "sensitivity": "biplan.analysis.sensitivity.equilibrium",
     "Stability": "biplan.analysis.stability",
     "Verdict": "biplan.analysis.stability",
     "classify": "biplan.analysis.stability",
     "reduced_hessian": "biplan.analysis.stability",
-    "Load": "biplan.assembly",
-    "Model": "biplan.assembly",
+    "Load": "biplan.model.assembly",
+    "Model": "biplan.model.assembly",
     "Development": "biplan.geometry",
     "FoldRef": "biplan.geometry",
-    "Tube": "biplan.geometry",
+    "Tube": "biplan.model.tube",
     "load_config": "biplan.io.config",
     "LinearLaw": "biplan.laws",
     "TransitionReading": "biplan.laws",

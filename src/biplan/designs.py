@@ -22,8 +22,8 @@ import enum
 from dataclasses import dataclass
 
 from biplan._errors import ConfigError, check_integer
-from biplan.geometry import Tube
 from biplan.laws import LinearLaw, TrilinearLaw
+from biplan.model.tube import Tube
 from biplan.options import ChainAttachment, ModelOptions
 
 __all__ = ["FullyBistableLaws", "fully_bistable", "semi_bistable"]

@@ -16,7 +16,7 @@ import scipy.linalg
 
 from biplan._errors import ConfigError
 from biplan.analysis.stability import reduced_hessian
-from biplan.assembly import Model
+from biplan.model.assembly import Model
 from biplan.solvers.dynamics import mass_matrix_at
 from biplan.solvers.newton import Solution
 

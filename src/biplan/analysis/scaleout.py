@@ -2,13 +2,14 @@
 
 A runner is ``runner(task, todo)`` yielding ``(chunk, result)`` as chunks finish (any order):
 ``todo`` lists (chunk id, indices) and ``task(indices)`` computes one chunk's result (a dict of
-arrays). :func:`biplan.analysis.sweeps.sweep` and the exhaustive state search
-(:func:`biplan.analysis.seeding.exhaustive`) stream each result to their sink. A task is a
+arrays). :func:`biplan.analysis.maps.sweeps.sweep` and the exhaustive state search
+(:func:`biplan.analysis.states.seeding.exhaustive`) stream each result to their sink. A task is a
 picklable partial of a module-level function over picklable descriptions (the frozen
 :class:`~biplan.Tube`, the grid, the evaluator, the search settings): a worker builds its
 model from them, compiles its kernels once per layout (module-level caches) and shares the
 persistent JAX compilation cache that biplan configures when its core is first imported
-(:func:`biplan._jax.configure`). Dask reruns the chunks of a worker that dies on another one.
+(:func:`biplan._compile.setup.configure`). Dask reruns the chunks of a worker that dies on another
+one.
 
 * :func:`dask_runner` — a ``LocalCluster`` on 127.0.0.1 (processes, one thread each) by
   default, or ``Client(address)`` of a user's scheduler; falls back to :func:`process_runner`

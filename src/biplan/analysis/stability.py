@@ -21,7 +21,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from biplan._errors import ConfigError
-from biplan.assembly import Model
+from biplan.model.assembly import Model
 from biplan.solvers.newton import Solution
 
 __all__ = [

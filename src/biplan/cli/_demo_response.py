@@ -20,7 +20,7 @@ from pathlib import Path
 from typing import TYPE_CHECKING
 
 if TYPE_CHECKING:
-    from biplan.assembly import Model
+    from biplan.model.assembly import Model
     from biplan.solvers.results import Snap
 
 __all__ = ["run_response"]
@@ -35,11 +35,11 @@ def run_response(
 ) -> tuple[list[str], list[Path]]:
     """Run the ramp and the path, write the files; return (summary lines, files).
 
-    ``peak``: the located phase-1 peak (:func:`~biplan.analysis.loadcontrol.first_snap`),
+    ``peak``: the located phase-1 peak (:func:`~biplan.analysis.response.loadcontrol.first_snap`),
     reported instead of the largest force recorded on the path."""
     import biplan
     from biplan.analysis.modes import natural_modes, rayleigh_for_damping_ratio
-    from biplan.analysis.response import summarize
+    from biplan.analysis.response.summary import summarize
     from biplan.io.results import dataset, save_csv, save_netcdf
 
     ref = biplan.relaxed_reference(model)

@@ -1,6 +1,6 @@
 """``biplan calibrate {trilinear,linear} DATA_DIR --out law.toml``: fold laws from CFT specimens.
 
-Reads every ``*.csv`` in DATA_DIR (one specimen each, format in :mod:`biplan.io.specimens`),
+Reads every ``*.csv`` in DATA_DIR (one specimen each, format in :mod:`biplan.calibration.files`),
 computes the median ± 1 SD band, fits the law at the fold-field level (specimen geometry from
 ``--radius``/``--n-folds`` or ``--config``, default R = 2 mm, one fold), bootstraps confidence
 intervals over specimens and writes
@@ -16,7 +16,7 @@ fitted to bistable data, a poor fit: :attr:`Calibration.caveats`) are printed as
 stderr, also with ``--quiet``, and written as ``# warning:`` comments into ``--out``.
 
 Options given on the command line override those of ``--config`` (schema:
-:func:`biplan.io.specimens.read_calibration_config`).
+:func:`biplan.calibration.files.read_calibration_config`).
 """
 
 from __future__ import annotations
@@ -35,7 +35,7 @@ from rich.table import Table
 from biplan.cli._checks import figure_suffixes, options_named, output_file
 
 if TYPE_CHECKING:
-    from biplan.analysis.calibration import Calibration
+    from biplan.calibration.calibrate import Calibration
 
 __all__ = ["app", "linear", "trilinear", "write_table"]
 
@@ -188,19 +188,19 @@ def _run(
 ) -> None:
     from dataclasses import replace
 
-    from biplan.analysis.calibration import (
+    from biplan.calibration.calibrate import (
         CalibrationOptions,
         calibrate_linear,
         calibrate_trilinear,
     )
-    from biplan.analysis.fits import CftGeometry
-    from biplan.io.specimens import (
+    from biplan.calibration.files import (
         SpecimenFormat,
         calibration_toml,
         read_calibration_config,
         read_specimens,
         with_overrides,
     )
+    from biplan.calibration.fits import CftGeometry
 
     console = Console(highlight=False)
     output_file(out)

@@ -2,7 +2,7 @@
 
 Builds the validated semi-bistable design (SI Table calib) or a tube from a TOML file, relaxes
 it, sweeps the prescribed end displacement U from 0 (exclusive) to 9 mm with
-:func:`~biplan.analysis.quasistatic.displacement_sweep`, prints a table and a summary, and
+:func:`~biplan.analysis.response.quasistatic.displacement_sweep`, prints a table and a summary, and
 writes into ``--out``:
 
 * ``force_displacement.png`` — F [N] against U [mm], snapshot states marked (a)–(c);
@@ -33,9 +33,9 @@ from rich.table import Table
 from biplan.cli._checks import output_directory
 
 if TYPE_CHECKING:
-    from biplan.analysis.quasistatic import QuasiStaticPath
-    from biplan.assembly import Model
-    from biplan.geometry import Tube
+    from biplan.analysis.response.quasistatic import QuasiStaticPath
+    from biplan.model.assembly import Model
+    from biplan.model.tube import Tube
     from biplan.solvers import Solution
     from biplan.solvers.results import Snap
 
@@ -61,7 +61,7 @@ def _sweep(
     model: Model, targets: np.ndarray, start: Solution, advance: Callable[[], object]
 ) -> QuasiStaticPath:
     """The displacement sweep, advancing a progress bar after every step."""
-    from biplan.analysis.quasistatic import displacement_sweep
+    from biplan.analysis.response.quasistatic import displacement_sweep
 
     return displacement_sweep(model, targets, start=start, progress=lambda *_: advance())
 
@@ -69,8 +69,8 @@ def _sweep(
 def phase_one(path: QuasiStaticPath) -> slice:
     """Steps of phase 1: from the start up to (excluding) the first step that failed, is
     unstable, switched branch (the first snap) or whose force fell along stable states
-    (:func:`biplan.analysis.response.phase_one_end`)."""
-    from biplan.analysis.response import phase_one_end
+    (:func:`biplan.analysis.response.summary.phase_one_end`)."""
+    from biplan.analysis.response.summary import phase_one_end
 
     return slice(0, phase_one_end(path.force, path.stable, path.switched))
 
@@ -120,7 +120,7 @@ def _table(path: QuasiStaticPath) -> Table:
 
 def _summary(path: QuasiStaticPath, seconds: float, peak: Snap | None) -> str:
     """The summary line: the located phase-1 peak (``peak``,
-    :func:`~biplan.analysis.loadcontrol.first_snap`), snaps, failures and time."""
+    :func:`~biplan.analysis.response.loadcontrol.first_snap`), snaps, failures and time."""
     first = phase_one(path)
     n_failed = int(np.sum(~np.isfinite(path.force)))
     n_snaps = int(np.sum(path.switched))
@@ -297,7 +297,7 @@ def demo(
     with progress:
         task = progress.add_task("Sweeping U", total=steps)
         path = _sweep(model, targets, ref, lambda: progress.advance(task))
-    from biplan.analysis.loadcontrol import first_snap
+    from biplan.analysis.response.loadcontrol import first_snap
 
     with console.status("Locating the phase-1 peak…") if interactive else contextlib.nullcontext():
         peak = first_snap(model)

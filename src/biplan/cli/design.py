@@ -1,12 +1,14 @@
 """``biplan design CONFIG --target T [--target T …] --vary NAME [--vary NAME …] --out DIR``.
 
-Inverse design (:func:`~biplan.analysis.inverse.inverse_design`): varies the named design
+Inverse design (:func:`~biplan.analysis.sensitivity.inverse.inverse_design`): varies the named
+design
 parameters of the tube in CONFIG, within their valid ranges, until its response meets every
 target. A target is ``OBSERVABLE[/l0]=VALUE[@F=FORCE | @U=DISPLACEMENT | @state=LABEL]``
 (``u_z/l0=0.06@F=1.6``, ``u_r=-0.2@U=3``, ``limit_force=1.5``, ``u_z/l0=0.9@state=66`` for a
-named stable state of a tube with bistable folds; :class:`~biplan.analysis.inverse.Target`); a
+named stable state of a tube with bistable folds;
+:class:`~biplan.analysis.sensitivity.inverse.Target`); a
 parameter is named as in the configuration (``laws.helical.stiffness``, ``geometry.helical_angle``,
-``laws.circular.transitions[0]``, …; :mod:`biplan.analysis._parameters`).
+``laws.circular.transitions[0]``, …; :mod:`biplan.analysis.sensitivity.parameters`).
 
 Writes into DIR:
 
@@ -33,7 +35,7 @@ from biplan._errors import ConfigError, check_integer, check_range
 from biplan.cli._checks import options_named, output_directory
 
 if TYPE_CHECKING:
-    from biplan.analysis.inverse import DesignResult
+    from biplan.analysis.sensitivity.inverse import DesignResult
 
 __all__ = ["EXIT_NOT_MET", "MAX_STARTS", "design"]
 
@@ -66,8 +68,8 @@ def design(
     """Find the design parameters that meet the targets; writes design.toml, design.csv and
     design_sensitivity.csv."""
     import biplan
-    from biplan.analysis._parameters import design_parameters
-    from biplan.analysis.inverse import Target, check_targets, inverse_design
+    from biplan.analysis.sensitivity.inverse import Target, check_targets, inverse_design
+    from biplan.analysis.sensitivity.parameters import design_parameters
     from biplan.io.config import dump_config
 
     check_integer("--starts", starts, low=1, high=MAX_STARTS)

@@ -9,7 +9,7 @@ detection ``biplan plot`` uses):
   the least-barrier pathway;
 * a force-ramp design map (``map.nc`` of ``biplan map design``): the u_z/l₀ and u_r/l₀
   heatmaps; every design's ramp response and terminal shape are computed again for the page
-  (:func:`biplan.analysis.ramp_curves.ramp_curves`, as long as the map itself took);
+  (:func:`biplan.analysis.maps.ramp_curves.ramp_curves`, as long as the map itself took);
 * a response (``response.nc`` of ``biplan respond``: a path, trajectory or stable-branch sweep):
   the force–displacement curve with a slider through the steps, the tube and development at
   each.
@@ -103,8 +103,8 @@ def _graph(dataset: Any, model: Any, folder: Path) -> Any:
     """The transition graph of a catalogue, with the barriers of ``GRAPH_FILE`` beside it."""
     import networkx as nx
 
-    from biplan.analysis.catalogue import StateCatalogue
-    from biplan.analysis.transitions import transition_graph
+    from biplan.analysis.states.catalogue import StateCatalogue
+    from biplan.analysis.states.transitions import transition_graph
 
     graph = transition_graph(StateCatalogue.from_dataset(dataset, model))
     stored = folder / GRAPH_FILE
@@ -136,7 +136,7 @@ def explorer_page(dataset: Any, file: Path) -> Page:
         graph = _graph(dataset, model, file.parent)
         return explorer.catalogue_page(dataset, model, graph, source=file.name)
     if kind is ResultKind.design_map:
-        from biplan.analysis.ramp_curves import map_designs, map_ramp, ramp_curves
+        from biplan.analysis.maps.ramp_curves import map_designs, map_ramp, ramp_curves
         from biplan.io.config import load_config_text
 
         design = load_config_text(str(dataset.attrs["config"]), source=str(file))

@@ -24,7 +24,7 @@ Every option, the grid and the output directory are checked before anything is c
 ``--workers`` > 1, are refused: they would be ignored). A grid of more than ``--max-points``
 points (default :data:`MAX_POINTS`) is refused with its estimated run time; a grid estimated
 to run longer than :data:`WARN_SECONDS` gets a one-line warning with the estimate
-(:mod:`biplan.analysis.cost`: measured points per second and core). Points that failed are
+(:mod:`biplan.analysis.maps.cost`: measured points per second and core). Points that failed are
 counted on stderr (also with ``--quiet``); a map in which every point failed is written, then
 the command exits with status 2.
 """
@@ -44,8 +44,8 @@ from biplan._errors import ConfigError, ConvergenceError, check_integer
 from biplan.cli._checks import options_named, output_directory, refuse_unused
 
 if TYPE_CHECKING:
-    from biplan.analysis.sweeps import Evaluator, Grid
-    from biplan.geometry import Tube
+    from biplan.analysis.maps.sweeps import Evaluator, Grid
+    from biplan.model.tube import Tube
 
 __all__ = ["MAX_POINTS", "WARN_SECONDS", "app", "check_size", "design", "plot", "run_map",
            "stability"]  # fmt: skip
@@ -125,8 +125,8 @@ def run_map(
         TimeRemainingColumn,
     )
 
+    from biplan.analysis.maps.sweeps import chunk_indices, sweep
     from biplan.analysis.scaleout import available_cores, dask_runner, thread_runner
-    from biplan.analysis.sweeps import chunk_indices, sweep
     from biplan.io.config import dump_config
     from biplan.io.sweepstore import ChunkStore, save_map
 
@@ -215,7 +215,7 @@ def check_size(
     ConfigError
         Naming ``--max-points``, with the grid's size and estimated time.
     """
-    from biplan.analysis.cost import duration, map_seconds
+    from biplan.analysis.maps.cost import duration, map_seconds
 
     check_integer("--max-points", max_points, low=1)
     seconds = map_seconds(evaluator.name, grid.size, tube.n_modules, cores)
@@ -280,7 +280,7 @@ def _run_b_c_map(config: Path, grid: Any, ev: Any, out: Path, *, chunk_size: int
     """Load the tube, check the (b, C) grid and its size, then run the map (design and
     instability maps)."""
     import biplan
-    from biplan.analysis.sweeps import check_grid
+    from biplan.analysis.maps.sweeps import check_grid
 
     tube = biplan.load_config(config)
     with options_named(_GRID_OPTIONS):
@@ -317,8 +317,8 @@ def design(
     quiet: _Quiet = False,
 ) -> None:
     """Force-controlled design map over (b, C): terminal u_z/l0, u_r/l0, loss of stability."""
-    from biplan.analysis.design_map import ForceRamp, ResponseEvaluator
-    from biplan.analysis.sweeps import Grid, parse_axis
+    from biplan.analysis.maps.design_map import ForceRamp, ResponseEvaluator
+    from biplan.analysis.maps.sweeps import Grid, parse_axis
 
     _check_runner(ctx, out, chunk_size, workers, scheduler, threads)
     names = {**_GRID_OPTIONS, "ramp.rate": "--rate", "ramp.duration": "--duration",
@@ -352,8 +352,8 @@ def instability(
     """First-instability map over (b, C): the end force F* [N] and displacement U* [mm] at
     which a force-controlled test first loses stability (NaN where it does not below
     --up-to)."""
-    from biplan.analysis.instability_map import InstabilityEvaluator
-    from biplan.analysis.sweeps import Grid, parse_axis
+    from biplan.analysis.maps.instability_map import InstabilityEvaluator
+    from biplan.analysis.maps.sweeps import Grid, parse_axis
 
     _check_runner(ctx, out, chunk_size, workers, scheduler, threads)
     with options_named({**_GRID_OPTIONS, "up_to": "--up-to"}):
@@ -397,12 +397,12 @@ def stability(
     """Displacement-controlled stability map over (C, U/l0) at fixed b: count of stable
     equilibria (1 mono, 2 bi, ≥3 multi) and the transition band."""
     import biplan
-    from biplan.analysis.stability_map import (
+    from biplan.analysis.maps.stability_map import (
         StabilityEvaluator,
         StabilitySearch,
         stability_chunk_size,
     )
-    from biplan.analysis.sweeps import Grid, apply_values, check_grid, parse_axis
+    from biplan.analysis.maps.sweeps import Grid, apply_values, check_grid, parse_axis
 
     _check_runner(ctx, out, chunk_size, workers, scheduler, threads)
     names = {**_GRID_OPTIONS, "search.max_equilibria": "--max-equilibria",

@@ -45,7 +45,7 @@ from biplan.cli._checks import figure_suffixes, output_file
 if TYPE_CHECKING:
     from matplotlib.figure import Figure
 
-    from biplan.assembly import Model
+    from biplan.model.assembly import Model
 
 __all__ = ["Kind", "kinds_for", "plot", "suffixes"]
 

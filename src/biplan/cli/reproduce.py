@@ -32,7 +32,7 @@ and the command goes on):
   ``explorer.html`` (the state catalogue), ``explorer_design_map.html`` and
   ``explorer_ramp.html`` (each written where its stage's result exists).
 
-Then ``REPRODUCTION.md``: every claim of :data:`biplan.io.reproduction.CLAIMS` with our value,
+Then ``REPRODUCTION.md``: every claim of :data:`biplan.reproduction.claims.CLAIMS` with our value,
 a computed verdict and the reason, one table per figure, linking the figures.
 
 ``--quick`` runs coarse grids and short runs (minutes cold, each kernel compiles once; see
@@ -59,7 +59,7 @@ from rich.markup import escape
 
 from biplan._errors import ConfigError
 from biplan.cli._checks import output_directory
-from biplan.io.reproduction import (
+from biplan.reproduction.claims import (
     RAMP_FORCE,
     CalibrationFacts,
     MovieFacts,
@@ -84,7 +84,7 @@ TPC_SIGNS = ("geometric", "as_printed")
 #: F* = 2.13 N, so the map shows how far each design is from the paper's 1.6 N ramp).
 INSTABILITY_UP_TO = 3.0
 
-#: The figure files written, by figure key of :data:`biplan.io.reproduction.FIGURES`.
+#: The figure files written, by figure key of :data:`biplan.reproduction.claims.FIGURES`.
 FIGURE_FILES = {
     "fig3": (
         "fig3_A1_design_maps.png",
@@ -187,7 +187,7 @@ def _logspace(spec: tuple[float, float, int]) -> list[float]:
 
 def _design_grid(s: Settings) -> Any:
     """The (b, C) grid of the design and first-instability maps: b even, C log-spaced."""
-    from biplan.analysis.sweeps import Grid
+    from biplan.analysis.maps.sweeps import Grid
 
     return Grid.of(b=_linspace(s.design_b), C=_logspace(s.design_c))
 
@@ -195,7 +195,7 @@ def _design_grid(s: Settings) -> Any:
 # --- stages ----------------------------------------------------------------------------------
 def _stage_semi(ctx: _Context) -> None:
     import biplan
-    from biplan.analysis.quasistatic import displacement_sweep
+    from biplan.analysis.response.quasistatic import displacement_sweep
     from biplan.io.results import save_netcdf, save_sweep_csv, sweep_dataset
 
     tube = _semi(ctx)
@@ -251,10 +251,10 @@ def _snapshot_figure(model: Any, path: Any, facts: SemiBistableFacts, file: Path
 def _synthetic_band(path: Any, seed: int = 11) -> Any:
     """A five-specimen band from the model's own sweep with specimen scatter (as in
     examples/data/make_synthetic.py): phase 1 (up to the first snap,
-    :func:`~biplan.analysis.response.phase_one_end`), phase 2 after the last snap."""
-    from biplan.analysis.response import phase_one_end
-    from biplan.analysis.specimens import Segment, Specimen, band_statistics
-    from biplan.analysis.synthetic import sample_segment
+    :func:`~biplan.analysis.response.summary.phase_one_end`), phase 2 after the last snap."""
+    from biplan.analysis.response.summary import phase_one_end
+    from biplan.calibration.specimens import Segment, Specimen, band_statistics
+    from biplan.calibration.synthetic import sample_segment
 
     ok = np.isfinite(path.force) & path.stable
     first = phase_one_end(path.force, path.stable, path.switched)
@@ -286,10 +286,10 @@ def _stage_validation(ctx: _Context) -> None:
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
-    from biplan.analysis.specimens import band_statistics
-    from biplan.analysis.validation import compare_to_band
+    from biplan.calibration.files import SpecimenFormat, read_specimens
+    from biplan.calibration.specimens import band_statistics
+    from biplan.calibration.validation import compare_to_band
     from biplan.cli.validate import write_comparison
-    from biplan.io.specimens import SpecimenFormat, read_specimens
     from biplan.plot import validation_band
     from biplan.plot.response import COLUMN_FIGSIZE
 
@@ -320,7 +320,7 @@ def _stage_validation(ctx: _Context) -> None:
 def run_map_python(design: Any, grid: Any, evaluator: Any, out: Path, chunk_size: int) -> Any:
     """Run one map through the sweep API and store it as ``out/map.nc`` (the one place that
     calls the maps machinery)."""
-    from biplan.analysis.sweeps import sweep
+    from biplan.analysis.maps.sweeps import sweep
     from biplan.io.config import dump_config
     from biplan.io.sweepstore import save_map
 
@@ -337,7 +337,7 @@ def _stage_design_map(ctx: _Context) -> None:
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
-    from biplan.analysis.design_map import ForceRamp, ResponseEvaluator
+    from biplan.analysis.maps.design_map import ForceRamp, ResponseEvaluator
     from biplan.plot.maps import design_map
 
     ev = ResponseEvaluator(ForceRamp(n_steps=ctx.settings.ramp_steps))
@@ -355,7 +355,7 @@ def _stage_instability_map(ctx: _Context) -> None:
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
-    from biplan.analysis.instability_map import InstabilityEvaluator
+    from biplan.analysis.maps.instability_map import InstabilityEvaluator
     from biplan.plot.maps import design_map
     from biplan.plot.response import COLUMN_FIGSIZE
 
@@ -374,11 +374,11 @@ def _stage_stability_map(ctx: _Context) -> None:
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
-    from biplan.analysis.stability_map import StabilityEvaluator
-    from biplan.analysis.sweeps import Grid, apply_values
-    from biplan.io.reproduction import PAPER_B
+    from biplan.analysis.maps.stability_map import StabilityEvaluator
+    from biplan.analysis.maps.sweeps import Grid, apply_values
     from biplan.plot.maps import stability_map
     from biplan.plot.response import COLUMN_FIGSIZE
+    from biplan.reproduction.claims import PAPER_B
 
     s = ctx.settings
     tube = apply_values(_semi(ctx), {"b": PAPER_B})
@@ -432,13 +432,13 @@ def _stage_states(ctx: _Context) -> None:
 
 
 def state_facts(folder: Path) -> StateFacts:
-    """The :class:`~biplan.io.reproduction.StateFacts` of a ``biplan states`` output folder
+    """The :class:`~biplan.reproduction.claims.StateFacts` of a ``biplan states`` output folder
     (states.csv, seeds.csv, hierarchy.nc, transitions.graphml)."""
     import networkx as nx
     import xarray as xr
 
-    from biplan.analysis.transitions import pathway
-    from biplan.io.reproduction import PAPER_PATHWAYS
+    from biplan.analysis.states.transitions import pathway
+    from biplan.reproduction.claims import PAPER_PATHWAYS
 
     with (folder / "states.csv").open(newline="") as fh:
         rows = list(csv.DictReader(fh))
@@ -488,12 +488,12 @@ def _stage_calibration(ctx: _Context) -> None:
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
-    from biplan.analysis.calibration import (
+    from biplan.calibration.calibrate import (
         CalibrationOptions,
         calibrate_linear,
         calibrate_trilinear,
     )
-    from biplan.analysis.synthetic import Scatter, synthetic_specimens
+    from biplan.calibration.synthetic import Scatter, synthetic_specimens
     from biplan.designs import SEMI_BISTABLE_TABLE as T
     from biplan.laws import LinearLaw, TrilinearLaw
     from biplan.plot import calibration_band
@@ -604,7 +604,7 @@ def run_stages(
 
     A stage that raises leaves its results None and records ``type: message`` in
     ``results.errors`` under the stage name, which is also the name of the
-    :class:`~biplan.io.reproduction.Results` field it fills (the full traceback in
+    :class:`~biplan.reproduction.claims.Results` field it fills (the full traceback in
     ``out/errors.log``).
     """
     ctx = _Context(out, settings, measured)

@@ -1,7 +1,7 @@
 """``biplan respond CONFIG --control {force,displacement,pressure} [--dynamic] --out DIR``.
 
 Quasi-static, ``--method stable`` (the default): what a test under that control does. Under
-force or pressure control (:func:`~biplan.analysis.loadcontrol.load_response`) the stable
+force or pressure control (:func:`~biplan.analysis.response.loadcontrol.load_response`) the stable
 branch up to its first loss of stability, the snap there (located; the landing state found by
 a descent at the fixed load), and the stable branch on from there, snap after snap, to
 ``--stop`` (``--stop-at-snap`` ends at the first); under displacement control the
@@ -23,7 +23,7 @@ Writes into DIR:
   dotted jumps; a dynamic run adds force and displacement against time.
 
 Every run reports the phase-1 peak force as the located first loss of stability under force
-control (:func:`~biplan.analysis.loadcontrol.first_snap`), with its tolerance. A stable run
+control (:func:`~biplan.analysis.response.loadcontrol.first_snap`), with its tolerance. A stable run
 that ends short of ``--stop`` writes its files and exits with status 1, saying why.
 
 Units: force N, displacement mm, pressure **kPa** on the command line and in the files and
@@ -55,8 +55,8 @@ from biplan.cli._checks import given, output_directory, refuse_unused
 if TYPE_CHECKING:
     from matplotlib.axes import Axes
 
-    from biplan.analysis.response import ResponseSummary
-    from biplan.assembly import Model
+    from biplan.analysis.response.summary import ResponseSummary
+    from biplan.model.assembly import Model
     from biplan.solvers import Trajectory
     from biplan.solvers.results import Path as ResponsePath
     from biplan.solvers.results import Snap
@@ -213,7 +213,7 @@ def _quasi_static(
 ) -> ResponsePath:
     """The quasi-static response under force or pressure control (or a numerical path)."""
     import biplan
-    from biplan.analysis.loadcontrol import load_response
+    from biplan.analysis.response.loadcontrol import load_response
 
     ctl = biplan.Control(biplan.solvers.ControlKind(kind), value)
     if method is Method.stable:
@@ -227,7 +227,7 @@ def _quasi_static(
 def _summary(model: Model, result: object) -> ResponseSummary:
     """The response's summary, its phase-1 peak the located one (:func:`_peak`) when the
     response leaves phase 1 (a dynamic ramp that never does reports no peak)."""
-    from biplan.analysis.response import summarize
+    from biplan.analysis.response.summary import summarize
 
     l0 = model.tube.initial_length
     plain = summarize(result, initial_length=l0)
@@ -238,8 +238,8 @@ def _summary(model: Model, result: object) -> ResponseSummary:
 
 def _peak(model: Model, result: object) -> Snap | None:
     """The located phase-1 peak: the response's first snap under force control, else
-    :func:`~biplan.analysis.loadcontrol.first_snap` (the same continuation settings)."""
-    from biplan.analysis.loadcontrol import PEAK_METHOD, first_snap
+    :func:`~biplan.analysis.response.loadcontrol.first_snap` (the same continuation settings)."""
+    from biplan.analysis.response.loadcontrol import PEAK_METHOD, first_snap
     from biplan.solvers import ControlKind
 
     snaps = getattr(result, "snaps", ())
@@ -278,11 +278,11 @@ def _report(
 
 
 def _stable_sweep(model: Model, stop: float, step: float, out: Path, quiet: bool) -> None:
-    """``--method stable``: :func:`~biplan.analysis.quasistatic.displacement_sweep` in
+    """``--method stable``: :func:`~biplan.analysis.response.quasistatic.displacement_sweep` in
     ⌈stop/step⌉ equal steps (checked against ``--max-steps`` before) from the relaxed
     reference."""
     import biplan
-    from biplan.analysis.quasistatic import displacement_sweep
+    from biplan.analysis.response.quasistatic import displacement_sweep
     from biplan.io.results import save_netcdf, save_sweep_csv, sweep_dataset
 
     n = _stable_steps(stop, step)

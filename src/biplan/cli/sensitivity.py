@@ -1,11 +1,14 @@
 """``biplan sensitivity CONFIG (--force F | --displacement U | --limit-point) --out DIR``.
 
 Design sensitivities of one state of the tube by implicit differentiation of its KKT system
-(:mod:`biplan.analysis.sensitivity`): with ``--force F`` the state a force-controlled test
+(:mod:`biplan.analysis.sensitivity.equilibrium`): with ``--force F`` the state a force-controlled
+test
 reaches at F from the relaxed reference (the stable response, snaps included), with
 ``--displacement U`` the state of the stable-branch displacement sweep at U
-(:func:`~biplan.analysis.reached.reached_state`); with ``--limit-point`` the first instability
-under force control, located (:mod:`biplan.analysis.limit_point`), and the derivatives of its
+(:func:`~biplan.analysis.response.reached.reached_state`); with ``--limit-point`` the first
+instability
+under force control, located (:mod:`biplan.analysis.sensitivity.limit_point`), and the derivatives
+of its
 force F* and displacement U*.
 
 Writes into DIR:
@@ -16,7 +19,8 @@ Writes into DIR:
 * ``sensitivity.png`` — one panel per observable: bars of the elasticities.
 
 Parameters are named as in the TOML configuration (``geometry.radius``,
-``laws.circular.stiffness[1]``, …; :mod:`biplan.analysis._parameters`); ``--angle b`` varies
+``laws.circular.stiffness[1]``, …; :mod:`biplan.analysis.sensitivity.parameters`); ``--angle b``
+varies
 b instead of β (R and l then at fixed b); ``--per-fold`` names every fold's law separately.
 
 Every option is checked before the tube is loaded: exactly one of ``--force``,
@@ -42,8 +46,8 @@ from biplan._errors import ConfigError, check_range
 from biplan.cli._checks import output_directory
 
 if TYPE_CHECKING:
-    from biplan.analysis.sensitivity import Sensitivity
-    from biplan.assembly import Model
+    from biplan.analysis.sensitivity.equilibrium import Sensitivity
+    from biplan.model.assembly import Model
 
 __all__ = ["MAX_DISPLACEMENT", "MAX_FORCE", "sensitivity"]
 
@@ -126,9 +130,9 @@ def _run(
 ) -> Sensitivity:
     """The sensitivities asked for."""
     from biplan import Load
-    from biplan.analysis.limit_point import limit_point_sensitivity, locate_limit_point
-    from biplan.analysis.reached import reached_state
-    from biplan.analysis.sensitivity import sensitivity as state_sensitivity
+    from biplan.analysis.response.reached import reached_state
+    from biplan.analysis.sensitivity.equilibrium import sensitivity as state_sensitivity
+    from biplan.analysis.sensitivity.limit_point import limit_point_sensitivity, locate_limit_point
 
     if limit_point:
         found = locate_limit_point(model)

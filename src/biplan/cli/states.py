@@ -38,8 +38,8 @@ from biplan._errors import ConfigError, check_integer
 from biplan.cli._checks import options_named, output_directory
 
 if TYPE_CHECKING:
-    from biplan.analysis.catalogue import StateCatalogue
-    from biplan.geometry import Tube
+    from biplan.analysis.states.catalogue import StateCatalogue
+    from biplan.model.tube import Tube
 
 __all__ = ["path", "state_name", "states", "write_states"]
 
@@ -69,7 +69,7 @@ def state_name(argument: str, text: str, tube: Tube) -> str:
     ConfigError
         Naming ``argument``, ``text`` and the valid form.
     """
-    from biplan.analysis.labels import bistable_folds, label_to_bits
+    from biplan.analysis.states.labels import bistable_folds, label_to_bits
 
     n_bits = len(bistable_folds(tube))
     digits = (n_bits + 3) // 4
@@ -91,11 +91,11 @@ def state_name(argument: str, text: str, tube: Tube) -> str:
 
 
 def _progress_enumeration(model: Any, quiet: bool, **search: Any) -> StateCatalogue:
-    """:func:`~biplan.analysis.states.enumerate_states` with a progress bar and an ETA
+    """:func:`~biplan.analysis.states.search.enumerate_states` with a progress bar and an ETA
     (``search``: its keyword arguments)."""
     from rich.progress import BarColumn, MofNCompleteColumn, Progress, TimeRemainingColumn
 
-    from biplan.analysis.states import enumerate_states
+    from biplan.analysis.states.search import enumerate_states
 
     with Progress(
         "[bold]relaxing seeds",
@@ -114,7 +114,7 @@ def _progress_enumeration(model: Any, quiet: bool, **search: Any) -> StateCatalo
 
 
 def _pathways(graph: Any) -> tuple[list[list[str]], list[str]]:
-    from biplan.analysis.transitions import pathway
+    from biplan.analysis.states.transitions import pathway
 
     paths: list[list[str]] = []
     names: list[str] = []
@@ -135,9 +135,9 @@ def write_states(catalogue: StateCatalogue, graph: Any, out: Path) -> list[Path]
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
-    from biplan.analysis.catalogue import CSV_COLUMNS
-    from biplan.analysis.hierarchy import hierarchy
-    from biplan.analysis.transitions import write_graphml
+    from biplan.analysis.states.catalogue import CSV_COLUMNS
+    from biplan.analysis.states.hierarchy import hierarchy
+    from biplan.analysis.states.transitions import write_graphml
     from biplan.io.config import dump_config
     from biplan.plot.states import distributions, endpoint_space, transition_diagram
 
@@ -230,8 +230,8 @@ def states(
     its finished chunks of seeds to --out/seeds/ (``--resume`` continues a killed run) and runs
     them on a Dask cluster with ``--workers N`` (a local one) or ``--scheduler ADDRESS``."""
     import biplan
-    from biplan.analysis.seeding import Search
-    from biplan.analysis.transitions import transition_graph
+    from biplan.analysis.states.seeding import Search
+    from biplan.analysis.states.transitions import transition_graph
 
     try:
         method = Search(search)
@@ -285,9 +285,9 @@ def states(
 def _seed_store(model: Any, out: Path, method: Any, yes: bool, resume: bool) -> Any:
     """The chunk store of an exhaustive search in ``out/seeds`` (None for the neighbourhood
     search), after the request's size is checked."""
-    from biplan.analysis import seeding
-    from biplan.analysis.labels import bistable_folds
-    from biplan.analysis.states import MAX_FOLDS, Enumeration
+    from biplan.analysis.states import seeding
+    from biplan.analysis.states.labels import bistable_folds
+    from biplan.analysis.states.search import MAX_FOLDS, Enumeration
     from biplan.io.config import dump_config
     from biplan.io.sweepstore import ChunkStore
 
@@ -312,7 +312,7 @@ def _seed_store(model: Any, out: Path, method: Any, yes: bool, resume: bool) -> 
 def _annotate(
     model: Any, catalogue: Any, graph: Any, quiet: bool, edges: Any = None, departure: bool = False
 ) -> None:
-    from biplan.analysis.transitions import annotate_barriers
+    from biplan.analysis.states.transitions import annotate_barriers
 
     n = graph.number_of_edges() if edges is None else len(edges)
     with Console(stderr=True, quiet=quiet).status(f"computing {n} edge barriers (NEB)…"):
@@ -354,7 +354,7 @@ def path(
 ) -> None:
     """Print the transition pathway between two stable states and its barriers."""
     import biplan
-    from biplan.analysis.transitions import pathway, transition_graph
+    from biplan.analysis.states.transitions import pathway, transition_graph
     from biplan.io.catalogue import load_catalogue
 
     if weight not in ("switches", "barrier"):

@@ -2,7 +2,8 @@
 
 Reads the measured MFT specimens (every ``*.csv`` in MEASURED_DIR; pressure columns convert
 with the tube's end area πR², R from CONFIG), computes their median ± 1 SD band, runs the
-design CONFIG under displacement control (:func:`~biplan.analysis.quasistatic.displacement_sweep`
+design CONFIG under displacement control
+(:func:`~biplan.analysis.response.quasistatic.displacement_sweep`
 from the relaxed reference, ``--steps`` steps up to ``--max-displacement``, default the largest
 measured displacement; the MFT's end displacement is the load-point axial displacement),
 overlays the predicted force–displacement curve on the band (paper Fig. 3 A.2) and reports the
@@ -32,8 +33,8 @@ from biplan.cli._checks import options_named, output_directory
 from biplan.cli.calibrate import FORMAT_OPTIONS, Column, MinPoints, Quiet, Unit, _format_changes
 
 if TYPE_CHECKING:
-    from biplan.analysis.quasistatic import QuasiStaticPath
-    from biplan.analysis.validation import BandComparison
+    from biplan.analysis.response.quasistatic import QuasiStaticPath
+    from biplan.calibration.validation import BandComparison
 
 __all__ = ["summary", "validate", "write_comparison"]
 
@@ -78,7 +79,7 @@ def summary(result: BandComparison, path: QuasiStaticPath) -> list[str]:
     else:
         lines.append("Prediction stays inside the band wherever both exist.")
     (ua, fa) = band.limits[0, 1]
-    from biplan.analysis.response import phase_one_end
+    from biplan.analysis.response.summary import phase_one_end
 
     stop = phase_one_end(path.force, path.stable, path.switched)
     if stop:
@@ -140,10 +141,10 @@ def validate(
     from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn
 
     import biplan
-    from biplan.analysis.quasistatic import displacement_sweep
-    from biplan.analysis.specimens import band_statistics
-    from biplan.analysis.validation import compare_to_band
-    from biplan.io.specimens import SpecimenFormat, read_specimens, with_overrides
+    from biplan.analysis.response.quasistatic import displacement_sweep
+    from biplan.calibration.files import SpecimenFormat, read_specimens, with_overrides
+    from biplan.calibration.specimens import band_statistics
+    from biplan.calibration.validation import compare_to_band
 
     console = Console(highlight=False)
     interactive = console.is_terminal and not quiet

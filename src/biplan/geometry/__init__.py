@@ -1,8 +1,8 @@
-"""Geometry and kinematics of MFTs: planar development, modules, connectors, chain. No energies."""
+"""Geometry and kinematics of MFTs: planar development, modules, connectors, chain. No laws, no
+energies."""
 
 from biplan.geometry.development import Development as Development
-from biplan.geometry.tube import FoldRef as FoldRef
-from biplan.geometry.tube import Tube as Tube
-from biplan.geometry.tube import TubeLayout as TubeLayout
+from biplan.geometry.layout import FoldRef as FoldRef
+from biplan.geometry.layout import TubeLayout as TubeLayout
 
-__all__ = ["Development", "FoldRef", "Tube", "TubeLayout"]
+__all__ = ["Development", "FoldRef", "TubeLayout"]

@@ -24,9 +24,10 @@ from typing import Any, NamedTuple
 
 import numpy as np
 
-from biplan._jax import jax, jnp
+from biplan._compile.setup import jax, jnp
 from biplan.geometry.connector import SPLIT_RANK
 from biplan.geometry.development import spans
+from biplan.geometry.layout import TubeLayout
 from biplan.geometry.module import (
     PIVOT,
     directions,
@@ -36,7 +37,6 @@ from biplan.geometry.module import (
     reference_nodes,
     rotation,
 )
-from biplan.geometry.tube import TubeLayout
 from biplan.options import ChainAttachment, ChainOffset, EndpointDefinition, LoadPoint, TpcSign
 
 __all__ = [

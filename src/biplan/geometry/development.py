@@ -15,8 +15,8 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass
 
+from biplan._compile.setup import jnp
 from biplan._errors import ConfigError, check_range
-from biplan._jax import jnp
 
 __all__ = ["Development", "spans"]
 

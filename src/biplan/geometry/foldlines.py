@@ -23,7 +23,7 @@ import numpy as np
 
 from biplan.geometry import chain
 from biplan.geometry.development import spans
-from biplan.geometry.tube import TubeLayout
+from biplan.geometry.layout import TubeLayout
 
 __all__ = ["FoldLines", "FoldMesh", "branch_index", "fold_lines", "fold_mesh"]
 

@@ -22,7 +22,7 @@ from typing import Any, NamedTuple
 
 import numpy as np
 
-from biplan._jax import jax, jnp
+from biplan._compile.setup import jax, jnp
 from biplan.geometry.chain import (
     GeometryParams,
     line_height,
@@ -30,8 +30,8 @@ from biplan.geometry.chain import (
     reference_frames,
     tables,
 )
+from biplan.geometry.layout import TubeLayout
 from biplan.geometry.module import PIVOT, node_positions, rotation
-from biplan.geometry.tube import TubeLayout
 from biplan.options import ChainAttachment, ChainOffset
 
 __all__ = [

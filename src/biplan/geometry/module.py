@@ -24,7 +24,7 @@ from __future__ import annotations
 from dataclasses import dataclass
 from typing import Any
 
-from biplan._jax import jnp
+from biplan._compile.setup import jnp
 from biplan.options import MirrorConvention, ModuleKind
 
 __all__ = [

@@ -36,7 +36,7 @@ from biplan.geometry.foldlines import (
     fold_lines,
     fold_mesh,
 )
-from biplan.geometry.tube import TubeLayout
+from biplan.geometry.layout import TubeLayout
 
 __all__ = [
     "DEFAULT_SUBDIVISIONS",

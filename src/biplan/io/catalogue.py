@@ -6,7 +6,7 @@ different layout (number of modules, base fold, bistable folds, coordinates) or 
 geometry (its states would not be equilibria of this tube). Every refusal is a
 :class:`~biplan.ConfigError` whose parameter is ``"catalogue"`` (the CLI names its option).
 :func:`load_catalogue` turns the checked dataset into a
-:class:`~biplan.analysis.catalogue.StateCatalogue` for the tube's model.
+:class:`~biplan.analysis.states.catalogue.StateCatalogue` for the tube's model.
 """
 
 from __future__ import annotations
@@ -17,12 +17,12 @@ from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
 from biplan._errors import ConfigError
-from biplan.analysis.labels import bistable_folds
+from biplan.analysis.states.labels import bistable_folds
 
 if TYPE_CHECKING:
-    from biplan.analysis.catalogue import StateCatalogue
-    from biplan.assembly import Model
-    from biplan.geometry import Tube
+    from biplan.analysis.states.catalogue import StateCatalogue
+    from biplan.model.assembly import Model
+    from biplan.model.tube import Tube
 
 __all__ = ["CATALOGUE_VARIABLES", "load_catalogue", "read_catalogue", "same_tube"]
 
@@ -142,6 +142,6 @@ def read_catalogue(path: str | Path, tube: Tube) -> Any:
 def load_catalogue(dataset: Any, model: Model) -> StateCatalogue:
     """The :class:`StateCatalogue` of a dataset checked by :func:`read_catalogue`, for the
     model of its tube."""
-    from biplan.analysis.catalogue import StateCatalogue
+    from biplan.analysis.states.catalogue import StateCatalogue
 
     return StateCatalogue.from_dataset(dataset, model)

@@ -1,4 +1,4 @@
-"""TOML tube configuration: read a :class:`~biplan.geometry.Tube` from a file and write one back.
+"""TOML tube configuration: read a :class:`~biplan.model.tube.Tube` from a file and write one back.
 
 Units are mm, N, s (mass in t) and degrees throughout.
 
@@ -50,13 +50,13 @@ geometry.b : float
     Geometric ratio b; β then follows from :meth:`Development.helical_angle_for_b` at the given
     R and l.
 geometry.n_modules : int
-    Number of modules N, 1 ≤ N ≤ :data:`~biplan.analysis.cost.MAX_MODULES` (400). Above
-    :data:`~biplan.analysis.cost.LARGE_MODULES` (48) loading warns (:class:`CostWarning`)
+    Number of modules N, 1 ≤ N ≤ :data:`~biplan.analysis.maps.cost.MAX_MODULES` (400). Above
+    :data:`~biplan.analysis.maps.cost.LARGE_MODULES` (48) loading warns (:class:`CostWarning`)
     with the estimated compile time and time per solved state.
 geometry.base_fold : bool, optional
     Default ``true``.
 geometry.surface_density : float, optional
-    Shell surface density μ [t/mm²]; default that of :class:`~biplan.geometry.Tube`.
+    Shell surface density μ [t/mm²]; default that of :class:`~biplan.model.tube.Tube`.
 laws.helical, laws.circular : table
     ``type`` (``"linear"`` or ``"trilinear"``), ``stiffness`` (a number, or ``[k1, k2, k3]``),
     for trilinear laws ``transitions = [l1, l2]`` and optionally ``bistable``. A set's table
@@ -106,9 +106,10 @@ from pathlib import Path
 from typing import Any
 
 from biplan._errors import ConfigError, CostWarning
-from biplan.analysis.cost import LARGE_MODULES, MAX_MODULES, duration, tube_cost
-from biplan.geometry import Development, Tube
+from biplan.analysis.maps.cost import LARGE_MODULES, MAX_MODULES, duration, tube_cost
+from biplan.geometry import Development
 from biplan.laws import FoldLaw, LinearLaw, TransitionReading, TrilinearLaw
+from biplan.model.tube import Tube
 from biplan.options import ModelOptions
 
 __all__ = ["ConfigFileError", "dump_config", "load_config", "load_config_text", "tube_from_dict"]

@@ -7,7 +7,7 @@
   scalar observables; units in the header comment line);
 * :func:`load_result` and :func:`model_of` — read a netCDF result and rebuild its model;
 * :func:`sweep_dataset`, :func:`save_sweep_csv` — the same for a stable-branch displacement
-  sweep (:func:`~biplan.analysis.quasistatic.displacement_sweep`);
+  sweep (:func:`~biplan.analysis.response.quasistatic.displacement_sweep`);
 * :func:`result_kind` and :func:`describe_result` — what a result file is (a path, trajectory,
   sweep, state catalogue, design or stability map), read from its attributes.
 """
@@ -22,9 +22,9 @@ from typing import Any
 import numpy as np
 
 from biplan._errors import ConfigError
-from biplan.analysis.quasistatic import SWEEP_KIND, QuasiStaticPath
-from biplan.assembly import Load, Model
+from biplan.analysis.response.quasistatic import SWEEP_KIND, QuasiStaticPath
 from biplan.io.config import dump_config, load_config_text
+from biplan.model.assembly import Load, Model
 from biplan.solvers.results import Path, Trajectory
 
 __all__ = [

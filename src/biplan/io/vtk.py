@@ -33,7 +33,7 @@ from biplan.geometry.foldlines import branch_index
 if TYPE_CHECKING:
     import meshio
 
-    from biplan.assembly import Model
+    from biplan.model.assembly import Model
 
 __all__ = ["export_result", "tube_mesh", "write_pvd", "write_vtu"]
 

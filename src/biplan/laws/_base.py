@@ -6,7 +6,7 @@ from typing import Any
 
 import numpy as np
 
-from biplan._jax import jax, jnp
+from biplan._compile.setup import jax, jnp
 from biplan.laws import _kernels as K
 
 

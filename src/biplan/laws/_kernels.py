@@ -21,7 +21,7 @@ from __future__ import annotations
 
 from typing import Any
 
-from biplan._jax import jnp
+from biplan._compile.setup import jnp
 
 Array = Any
 Coefficients = tuple[Array, Array, Array, Array, Array]

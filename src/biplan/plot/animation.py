@@ -30,7 +30,7 @@ from biplan.plot.tube import add_colorbar, development, elongation_norm, fold_sc
 if TYPE_CHECKING:
     from mpl_toolkits.mplot3d.axes3d import Axes3D
 
-    from biplan.assembly import Model
+    from biplan.model.assembly import Model
 
 __all__ = ["animate", "frame_indices"]
 

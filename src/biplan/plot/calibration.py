@@ -25,9 +25,9 @@ from biplan.plot.response import COLUMN_FIGSIZE, FONT_SIZE, _new_axes, _style
 if TYPE_CHECKING:
     from matplotlib.axes import Axes
 
-    from biplan.analysis.calibration import Calibration
-    from biplan.analysis.specimens import Band
-    from biplan.analysis.validation import BandComparison
+    from biplan.calibration.calibrate import Calibration
+    from biplan.calibration.specimens import Band
+    from biplan.calibration.validation import BandComparison
 
 __all__ = ["calibration_band", "validation_band"]
 
@@ -92,8 +92,8 @@ def calibration_band(
     Parameters
     ----------
     result : Calibration
-        From :func:`~biplan.analysis.calibration.calibrate_trilinear` or
-        :func:`~biplan.analysis.calibration.calibrate_linear`.
+        From :func:`~biplan.calibration.calibrate.calibrate_trilinear` or
+        :func:`~biplan.calibration.calibrate.calibrate_linear`.
     ax : Axes, optional
         Axes to draw into; a new 3.4 × 2.6 in figure when omitted.
     field_axis : bool
@@ -103,7 +103,7 @@ def calibration_band(
     -------
     Axes
     """
-    from biplan.analysis.fits import cft_force
+    from biplan.calibration.fits import cft_force
 
     ax = _new_axes(ax, COLUMN_FIGSIZE)
     band = result.band
@@ -136,7 +136,7 @@ def validation_band(result: BandComparison, *, ax: Axes | None = None) -> Axes:
     Parameters
     ----------
     result : BandComparison
-        From :func:`~biplan.analysis.validation.compare_to_band`.
+        From :func:`~biplan.calibration.validation.compare_to_band`.
     ax : Axes, optional
         Axes to draw into; a new 3.4 × 2.6 in figure when omitted.
 

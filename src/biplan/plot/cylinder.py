@@ -36,7 +36,7 @@ from biplan.plot.tube import (
 if TYPE_CHECKING:
     from mpl_toolkits.mplot3d.axes3d import Axes3D
 
-    from biplan.assembly import Model
+    from biplan.model.assembly import Model
 
 __all__ = ["cylinder", "reconstruct", "set_limits3d"]
 

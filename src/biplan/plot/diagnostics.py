@@ -176,7 +176,7 @@ def phase_fractions(
     phases = [str(p) for p in dataset["phase"].values]
     if phase not in phases:
         raise ValueError(f"phase must be one of {phases}, got {phase!r}")
-    from biplan.analysis.quasistatic import SWEEP_KIND
+    from biplan.analysis.response.quasistatic import SWEEP_KIND
 
     if x is None:  # a sweep's U only grows; a path's may turn back at limit points
         x = "displacement" if dataset.attrs.get("kind") == SWEEP_KIND else _dim(dataset)

@@ -24,7 +24,7 @@ if TYPE_CHECKING:
     from matplotlib.figure import Figure
     from mpl_toolkits.mplot3d.axes3d import Axes3D
 
-    from biplan.assembly import Model
+    from biplan.model.assembly import Model
 
 __all__ = ["gallery", "open_helical_folds", "order_states"]
 

@@ -24,7 +24,7 @@ import numpy as np
 if TYPE_CHECKING:
     from matplotlib.axes import Axes
 
-    from biplan.analysis.quasistatic import QuasiStaticPath
+    from biplan.analysis.response.quasistatic import QuasiStaticPath
 
 __all__ = ["COLUMN_FIGSIZE", "FONT_SIZE", "cell_edges", "force_displacement", "legend_above"]
 

@@ -1,4 +1,4 @@
-"""Bar chart of design sensitivities (:mod:`biplan.analysis.sensitivity`).
+"""Bar chart of design sensitivities (:mod:`biplan.analysis.sensitivity.equilibrium`).
 
 :func:`elasticities` draws, for one observable y, the normalised sensitivity (p / y) ∂y/∂p of
 every parameter p as a horizontal bar (positive: vermillion, negative: blue; Okabe–Ito), the
@@ -17,7 +17,7 @@ from biplan.plot.response import COLUMN_FIGSIZE, FONT_SIZE, _new_axes, _style
 if TYPE_CHECKING:
     from matplotlib.axes import Axes
 
-    from biplan.analysis.sensitivity import Observable, Sensitivity
+    from biplan.analysis.sensitivity.equilibrium import Observable, Sensitivity
 
 __all__ = ["elasticities"]
 

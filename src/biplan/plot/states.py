@@ -11,7 +11,7 @@
   named only where their names do not overlap (:func:`readable_labels`), and the title says
   how many are;
 * :func:`distributions` — state counts over Θ, u_z/l₀ and u_r/l₀ and the branch-wise RMS
-  relations, from :func:`biplan.analysis.hierarchy.hierarchy`.
+  relations, from :func:`biplan.analysis.states.hierarchy.hierarchy`.
 """
 
 from __future__ import annotations
@@ -75,7 +75,7 @@ def transition_diagram(
     Parameters
     ----------
     graph : networkx.Graph
-        From :func:`biplan.analysis.transitions.transition_graph`.
+        From :func:`biplan.analysis.states.transitions.transition_graph`.
     pathways : sequence of sequences of state names
         Drawn in colour, in order, labelled ``names`` (default p1, p2, …).
     """
@@ -251,7 +251,7 @@ def distributions(hierarchy: Any, *, fig: Any = None) -> np.ndarray:
     Parameters
     ----------
     hierarchy : xarray.Dataset
-        From :func:`biplan.analysis.hierarchy.hierarchy`.
+        From :func:`biplan.analysis.states.hierarchy.hierarchy`.
 
     Returns
     -------

@@ -41,7 +41,7 @@ if TYPE_CHECKING:
     from matplotlib.axes import Axes
     from matplotlib.figure import Figure
 
-    from biplan.assembly import Model
+    from biplan.model.assembly import Model
 
 __all__ = [
     "ARC_SUBDIVISIONS",

@@ -7,7 +7,7 @@ Per step the unknowns are z_{n+1} = [q, λ, λ_∂, μ] at t_{n+1}; with the New
     v_{n+1}  = v_n + h (1 − γ) a_n + h γ a_{n+1}
     q̈_{n+1} = ((1 − α_m) a_{n+1} + α_m a_n − α_f q̈_n) / (1 − α_f)
 
-the residual is the static KKT residual of :func:`biplan.assembly.residual` at t_{n+1} plus
+the residual is the static KKT residual of :func:`biplan.model.assembly.residual` at t_{n+1} plus
 the inertia and Rayleigh forces M(q)(q̈ + α_R q̇) + c(q, q̇) in the q rows; the guides and the
 SFB contact conditions hold at t_{n+1} (index 3). Its Jacobian is the static KKT Jacobian plus
 the autodiff derivative of the inertia rows with respect to q. :func:`chunk` advances a fixed
@@ -20,9 +20,9 @@ from __future__ import annotations
 import functools
 from typing import Any, NamedTuple
 
-from biplan._jax import jax, jnp
-from biplan._kernels import kernel
-from biplan.assembly import (
+from biplan._compile.kernel import kernel
+from biplan._compile.setup import jax, jnp
+from biplan.model.assembly import (
     Load,
     ModelParams,
     TubeLayout,
@@ -32,7 +32,7 @@ from biplan.assembly import (
     residual,
     sizes,
 )
-from biplan.inertia import inertia_force, quadrature_points, quadrature_weights
+from biplan.model.inertia import inertia_force, quadrature_points, quadrature_weights
 from biplan.solvers.core import Status, damped
 
 Array = Any

@@ -20,10 +20,10 @@ from __future__ import annotations
 
 from typing import Any, NamedTuple
 
-from biplan import _linalg as linalg
-from biplan._jax import jax, jnp
-from biplan._kernels import kernel
-from biplan.assembly import Load, ModelParams, TubeLayout, kkt_jacobian, residual, sizes
+from biplan._compile import linalg
+from biplan._compile.kernel import kernel
+from biplan._compile.setup import jax, jnp
+from biplan.model.assembly import Load, ModelParams, TubeLayout, kkt_jacobian, residual, sizes
 from biplan.solvers.core import Status, damped, residual_norm
 from biplan.solvers.observe import Observation, observe_from_jacobian
 

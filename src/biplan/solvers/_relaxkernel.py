@@ -3,7 +3,8 @@
 One pure function per seed, ``vmap``-ped and jitted once per tube layout:
 
 1. **Kinematic seed.** Gauss–Newton on r(q) = [g(q); m ⊙ (w̄(q) − t)] from q = 0, where g are
-   the guides, w̄ the length-mean elongation of every fold (:func:`biplan.assembly.fold_openings`),
+   the guides, w̄ the length-mean elongation of every fold
+   (:func:`biplan.model.assembly.fold_openings`),
    t the target of each fold (0 for closed, the law's open well for open) and m masks the folds
    that take part (bistable ones). The system is square for a fully bistable tube (DOF = number
    of folds); a small Levenberg damping keeps it well posed otherwise. Steps are capped so that
@@ -30,10 +31,10 @@ import functools
 from collections.abc import Callable
 from typing import Any, NamedTuple
 
-from biplan import _linalg as linalg
-from biplan._jax import jax, jnp
-from biplan._kernels import kernel
-from biplan.assembly import (
+from biplan._compile import linalg
+from biplan._compile.kernel import kernel
+from biplan._compile.setup import jax, jnp
+from biplan.model.assembly import (
     AT_REST,
     ModelParams,
     TubeLayout,
@@ -217,7 +218,7 @@ def relax_pool(
     ``lanes`` refilled lanes each (:func:`biplan.solvers.pool.refill`), so a seed that needs
     200 descent iterations occupies one lane while the others move on; the polish assembles
     without the load point's terms, which vanish at rest
-    (:func:`biplan.assembly.residual_at_rest`). Each seed's result is :func:`relax_seed`'s up
+    (:func:`biplan.model.assembly.residual_at_rest`). Each seed's result is :func:`relax_seed`'s up
     to rounding (the test compares them). Rows ≥ n_tasks are padding (status −1).
     """
     t_total = target.shape[0]

@@ -28,9 +28,9 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from biplan._compile.setup import jnp
 from biplan._errors import ConfigError, check_integer, check_range
-from biplan._jax import jnp
-from biplan.assembly import Load, Model
+from biplan.model.assembly import Load, Model
 from biplan.solvers import _pathkernel as pk
 from biplan.solvers.control import Control
 from biplan.solvers.newton import Newton, Solution, solve_equilibrium
@@ -117,7 +117,8 @@ class LoadStepping(_Stepper):
         Relative width of the final bracket of a located event.
     stop_at_limit_point : bool
         End the path (``PathStatus.LIMIT_POINT``) at the first state past a limit point of Λ,
-        where a load-controlled test would snap (:func:`biplan.analysis.loadcontrol.load_response`).
+        where a load-controlled test would snap
+        (:func:`biplan.analysis.response.loadcontrol.load_response`).
     """
 
     natural = True

@@ -17,7 +17,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from biplan._errors import ConfigError, check_finite
-from biplan.assembly import Load, Model
+from biplan.model.assembly import Load, Model
 
 __all__ = ["Control", "ControlKind"]
 

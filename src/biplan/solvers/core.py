@@ -16,7 +16,8 @@ kernel serves every :class:`~biplan.solvers.Newton`. Its drivers:
 The systems differ only in their residual: the KKT system of the model
 (:func:`biplan.solvers.newton.newton_machine`), the bordered arclength system
 (:mod:`biplan.solvers._pathkernel`), the time step's dynamic residual
-(:mod:`biplan.solvers._dynkernel`) and the deflated system (:mod:`biplan.analysis.deflation`).
+(:mod:`biplan.solvers._dynkernel`) and the deflated system
+(:mod:`biplan.analysis.states.deflation`).
 """
 
 from __future__ import annotations
@@ -25,8 +26,8 @@ import enum
 from collections.abc import Callable
 from typing import Any, NamedTuple
 
-from biplan import _linalg as linalg
-from biplan._jax import jax, jnp
+from biplan._compile import linalg
+from biplan._compile.setup import jax, jnp
 
 __all__ = [
     "LoopState",
@@ -180,7 +181,7 @@ def machine(
 
     ``converged(z, R)`` (static): the convergence test at an accepted point; default
     ‖R‖∞ < ``settings.atol``. The deflated system converges on its *undeflated* residual
-    (:mod:`biplan.analysis.deflation`).
+    (:mod:`biplan.analysis.states.deflation`).
 
     ``solve(J, b)`` (static): the Newton direction's linear solve, default LU. With the
     minimum-norm least-squares solve (:func:`minimum_norm`) the system may be rectangular

@@ -5,7 +5,7 @@ The constrained equations of motion (SI Eq. governing, in Lagrangian form, MODEL
     M(q) q̈ + c(q, q̇) + α_R M q̇ + ∇Π − ∇W_ext + Gᵀλ − Cᵀλ_∂ = 0,   g(q) = 0,   φ_SFB = 0
 
 are integrated by the generalized-α method (:class:`GeneralizedAlpha`, MODEL CHOICE D3) with
-the mass matrix of :mod:`biplan.inertia` (surface density μ = ``tube.surface_density``).
+the mass matrix of :mod:`biplan.model.inertia` (surface density μ = ``tube.surface_density``).
 Rayleigh damping D = α_R M is optional (CHOICE D2; the paper states none). The load follows a
 piecewise-linear :class:`LoadHistory` of force, displacement or pressure — by default the
 paper's ramp F(t) = 0.8 N/s · t for 0 ≤ t ≤ 2 s.
@@ -27,11 +27,11 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from biplan._compile.kernel import Kernel
+from biplan._compile.setup import jax, jnp
 from biplan._errors import ConfigError, check_finite, check_integer, check_range
-from biplan._jax import jax, jnp
-from biplan._kernels import Kernel
-from biplan.assembly import Load, Model
-from biplan.inertia import mass_matrix
+from biplan.model.assembly import Load, Model
+from biplan.model.inertia import mass_matrix
 from biplan.solvers import _dynkernel as dk
 from biplan.solvers.control import Control, ControlKind
 from biplan.solvers.newton import Solution, relaxed_reference
@@ -180,7 +180,7 @@ class LoadHistory:
         )
 
 
-#: :func:`biplan.inertia.mass_matrix` as a kernel (``_mass.compiled(layout)``).
+#: :func:`biplan.model.inertia.mass_matrix` as a kernel (``_mass.compiled(layout)``).
 _mass = Kernel(mass_matrix, "mass_matrix")
 
 

@@ -14,10 +14,10 @@ from typing import Any
 
 import numpy as np
 
+from biplan._compile.kernel import kernel
+from biplan._compile.setup import jax, jnp
 from biplan._errors import ConfigError, ConvergenceError, check_integer, check_range
-from biplan._jax import jax, jnp
-from biplan._kernels import kernel
-from biplan.assembly import Load, Model, StateData, TubeLayout, kernels, state_from_jacobian
+from biplan.model.assembly import Load, Model, StateData, TubeLayout, kernels, state_from_jacobian
 from biplan.solvers.core import LoopState, Settings, Status, machine
 
 __all__ = ["Newton", "Solution", "Status", "relaxed_reference", "solve_equilibrium"]
@@ -96,7 +96,7 @@ def newton_machine(
     axis_name: str | None = None,
 ) -> tuple:
     """:func:`biplan.solvers.core.machine` on the model's KKT system r(z) = 0 at ``load``
-    (its residual and KKT Jacobian, :func:`biplan.assembly.kernels`)."""
+    (its residual and KKT Jacobian, :func:`biplan.model.assembly.kernels`)."""
     k = kernels(layout)
     return machine(
         lambda z: k.residual(params, z, load),

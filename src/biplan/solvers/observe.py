@@ -26,10 +26,10 @@ from typing import Any, NamedTuple
 
 import numpy as np
 
-from biplan import _linalg as linalg
-from biplan._jax import jnp
-from biplan._kernels import kernel
-from biplan.assembly import (
+from biplan._compile import linalg
+from biplan._compile.kernel import kernel
+from biplan._compile.setup import jnp
+from biplan.model.assembly import (
     Load,
     ModelParams,
     StateData,
@@ -161,7 +161,7 @@ def observe_from_jacobian(
 ) -> Observation:
     """:func:`observe` from the KKT Jacobian ``jac`` at z (``assembly.kkt_jacobian``), which
     a solver has at hand at its converged state: no second assembly
-    (:func:`biplan.assembly.state_from_jacobian`)."""
+    (:func:`biplan.model.assembly.state_from_jacobian`)."""
     data = state_from_jacobian(layout, p, z, load, jac)
     return observation(layout, p, z, load, data, weak_contacts)
 
@@ -174,7 +174,7 @@ def observation(
     data: StateData,
     weak_contacts: bool = False,
 ) -> Observation:
-    """The observables of z under ``load`` from its :class:`~biplan.assembly.StateData`."""
+    """The observables of z under ``load`` from its :class:`~biplan.model.assembly.StateData`."""
     nq = sizes(layout)[0]
     active, contact, d = _active_rows(layout, z, data.gaps, load, weak_contacts)
     lam_min, dof = min_reduced_eigenvalue(data.lagrangian_hessian, data.constraint_jacobian, active)

@@ -24,9 +24,9 @@ from __future__ import annotations
 from collections.abc import Callable
 from typing import Any, NamedTuple
 
-from biplan._jax import jax, jnp
-from biplan._kernels import kernel
-from biplan.assembly import Load, TubeLayout
+from biplan._compile.kernel import kernel
+from biplan._compile.setup import jax, jnp
+from biplan.model.assembly import Load, TubeLayout
 from biplan.solvers.core import Settings
 from biplan.solvers.newton import newton_machine
 

@@ -16,7 +16,7 @@ from typing import Any
 
 import numpy as np
 
-from biplan.assembly import Model
+from biplan.model.assembly import Model
 from biplan.solvers.control import Control
 from biplan.solvers.observe import STABILITY_TOL, Observation
 
@@ -134,7 +134,8 @@ class Event:
 
 @dataclass(frozen=True)
 class Snap:
-    """A jump of a load-controlled response (:func:`biplan.analysis.loadcontrol.load_response`).
+    """A jump of a load-controlled response
+    (:func:`biplan.analysis.response.loadcontrol.load_response`).
 
     At a located loss of stability the tube leaves its branch at the fixed load for a stable
     state on another branch; the response goes on from there.

@@ -7,7 +7,7 @@ space (u_z/l₀, u_r/l₀, Θ) as a rotatable 3D scatter (Fig. 4 B); the selecte
 and planar development with its label, bits, energy, λ_min and endpoint values. Clicking a
 state in the graph or in endpoint space selects it in both; choosing two states highlights
 the pathway between them (fewest fold switches, or least total barrier climbed when the
-edges carry barriers: :func:`biplan.analysis.transitions.pathway`) in both panels, and the
+edges carry barriers: :func:`biplan.analysis.states.transitions.pathway`) in both panels, and the
 step buttons move the selection along it, shape by shape.
 """
 
@@ -24,7 +24,7 @@ from biplan.plot.states import PALETTE, _positions
 if TYPE_CHECKING:
     import networkx as nx
 
-    from biplan.assembly import Model
+    from biplan.model.assembly import Model
 
 __all__ = ["MAX_NAMED", "catalogue_page"]
 
@@ -196,7 +196,7 @@ def catalogue_page(dataset: Any, model: Model, graph: nx.Graph, *, source: str =
     model : Model
         The model of its tube.
     graph : networkx.Graph
-        Its transition graph (:func:`biplan.analysis.transitions.transition_graph`), with
+        Its transition graph (:func:`biplan.analysis.states.transitions.transition_graph`), with
         ``saddle_energy`` on the edges where barriers were computed.
     source : str
         Where the catalogue came from (shown under the title).

@@ -4,7 +4,7 @@ Panels: the terminal u_z/l₀ and u_r/l₀ as heatmaps over the map's two axes (
 design starred (for the paper's design the validated one; :func:`biplan.plot.maps.design_map`);
 clicking a cell selects it in both and shows that design's ramp response (force against
 load-point displacement, the quasi-static steps and the dynamic finish after a snap,
-:func:`biplan.analysis.ramp_curves.ramp_curves`) and its terminal shape (tube and planar
+:func:`biplan.analysis.maps.ramp_curves.ramp_curves`) and its terminal shape (tube and planar
 development). Designs of different b have different element polygons, so the page holds one
 reference mesh per b (:class:`~biplan.plot.explorer.shapes.ShapeSet`), decimated further
 (:data:`MAP_SUBDIVISIONS`) than the other pages'.
@@ -22,8 +22,8 @@ from biplan.plot.explorer.shapes import shape_set
 from biplan.plot.maps import VALIDATED_DESIGN
 
 if TYPE_CHECKING:
-    from biplan.analysis.ramp_curves import RampCurve
-    from biplan.geometry import Tube
+    from biplan.analysis.maps.ramp_curves import RampCurve
+    from biplan.model.tube import Tube
 
 __all__ = ["MAP_SUBDIVISIONS", "map_page"]
 
@@ -83,7 +83,7 @@ def map_page(
         A force-ramp design map over (b, C) (``biplan map design``).
     designs, curves : sequence
         The tube and the ramp response of every point, row-major in the order of the map's
-        variables' dims (:func:`biplan.analysis.ramp_curves.map_designs`); None where a design
+        variables' dims (:func:`biplan.analysis.maps.ramp_curves.map_designs`); None where a design
         is invalid or was not followed.
     source : str
         Where the map came from (shown under the title).
@@ -92,7 +92,7 @@ def map_page(
     -------
     Page
     """
-    from biplan.assembly import Model
+    from biplan.model.assembly import Model
 
     dims = dataset["u_z"].dims
     shape = tuple(dataset.sizes[d] for d in dims)

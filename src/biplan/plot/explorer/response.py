@@ -18,7 +18,7 @@ from biplan.plot.explorer.page import Page, PageKind, panel, shape_panels
 from biplan.plot.explorer.shapes import shape_set
 
 if TYPE_CHECKING:
-    from biplan.assembly import Model
+    from biplan.model.assembly import Model
 
 __all__ = ["MAX_SHAPES", "response_page", "shown_steps"]
 

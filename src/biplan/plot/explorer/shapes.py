@@ -26,7 +26,7 @@ import numpy as np
 from biplan.geometry import chain, foldlines, surface
 
 if TYPE_CHECKING:
-    from biplan.assembly import Model
+    from biplan.model.assembly import Model
 
 __all__ = ["SUBDIVISIONS", "ShapeSet", "shape_set", "tube_points"]
 

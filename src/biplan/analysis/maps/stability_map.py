@@ -1,0 +1,644 @@
+"""Displacement-controlled stability map (paper Fig. 3 A.3; SI design-map section).
+
+At every grid point (prescribed normalised end displacement U/l₀ and design parameters, by
+default C at b = 0.58) the distinct equilibria are searched for and classified:
+
+1. **Seeds.** Newton (displacement control, U = value · l₀ [mm]) from a fixed set of starts
+   (:func:`seeds`): by default one per subset of the circular folds, the displacement shared
+   equally by the open folds of the subset (``seeding = "subsets"``: 2^N_c starts, 64 for the
+   semi-bistable design). The circular folds are in series and nearly equivalent, so every
+   combination of k folds on their third branch is a stable equilibrium where U allows k
+   open folds: C(N_c, k) of them (15 for two open folds of six). The 3 N_c − 2 patterns of
+   earlier versions (all closed, shared by all, one per fold, the k lowest and the k highest
+   folds; ``seeding = "patterns"``, used past ``max_subset_folds`` folds) found only the
+   combinations next to the base or the free end.
+   By default these fixed seeds run only at points at most ``seed_spacing`` = 0.04 apart in
+   U/l₀ along a row (every fourth point of a grid with ΔU/l₀ = 0.01; every point of a coarser
+   grid), the first and the last.
+2. **Continuation along the displacement axis** (``continuation = "march"``). All stable
+   equilibria of each point are continued to the next point of the row (Newton from them at
+   the new displacement), forward through the whole row; then backward, from the stable
+   equilibria that the forward sweep did not reach from the point before (branches that
+   appear between two points, found by the fixed seeds further along). A branch found
+   anywhere in a row is so followed wherever it exists. On the check grids (8 × 40 and
+   6 × 40 points, docs/maps.md) this finds exactly the counts of seeding every point and
+   continuing one step from both neighbours (``seed_spacing = 0``,
+   ``continuation = "neighbours"``, the previous default), at 2.2× its speed.
+3. **Distinct equilibria.** Converged solutions closer than ``distinct_tol`` in every
+   coordinate are one equilibrium; each is classified with λ_min of the reduced Hessian
+   (:func:`biplan.solvers.observe.min_reduced_eigenvalue`, the batched form of
+   :func:`biplan.analysis.stability.classify`): stable if λ_min > ``STABILITY_TOL``.
+4. **Count.** ``n_stable`` = 1 monostable, 2 bistable, ≥ 3 multistable (``regime`` 1, 2, 3; 0
+   when none was found). The **transition band** is the stretch of each row along the
+   displacement axis between the first and the last change of regime, when the regime changes
+   more than once (neighbouring points alternate), up to the point from which the final
+   regime holds.
+
+The fixed seeds of a chunk, (points × seeds), run as one task queue on a lane-refilling Newton
+pool (:func:`biplan.solvers.pool.newton_pool`, ``solve_batch`` lanes, one compiled kernel per
+layout, lane count and size bucket of the chunk, :func:`points_per_kernel`): a lane whose seed
+has converged or failed takes the next seed, so a slow seed no longer holds up a whole batch.
+Each march step solves the continuation seeds of all rows of the chunk on a pool of
+``march_lanes`` lanes. Only one solution per distinct equilibrium and point is observed
+(Hessian, λ_min), the copies share its values. Continuation stays inside a chunk, so rows
+should not straddle chunks (the CLI sizes the chunks to whole rows, at least 128 points:
+:func:`stability_chunk_size`).
+"""
+
+from __future__ import annotations
+
+import itertools
+from collections.abc import Mapping, Sequence
+from dataclasses import dataclass
+from typing import Any
+
+import numpy as np
+
+from biplan._compile.kernel import kernel
+from biplan._compile.setup import jax, jnp
+from biplan._errors import ConfigError, check_integer, check_range
+from biplan.analysis.maps.design_map import stack_params
+from biplan.model.assembly import Load, Model, TubeLayout
+from biplan.model.tube import Tube
+from biplan.solvers.newton import Newton, Status
+from biplan.solvers.observe import ACTIVE_GAP, STABILITY_TOL, observe
+from biplan.solvers.pool import newton_pool
+
+__all__ = [
+    "StabilityEvaluator",
+    "StabilitySearch",
+    "points_per_kernel",
+    "stability_chunk_size",
+    "transition_band",
+]
+
+Array = Any
+
+#: Continuation modes of :class:`StabilitySearch`.
+CONTINUATIONS = ("march", "neighbours")
+
+#: Seedings of :class:`StabilitySearch` (:func:`seeds`).
+SEEDINGS = ("subsets", "patterns")
+
+#: Largest ``StabilitySearch.max_subset_folds``: 2^12 = 4096 seeds per seeded point.
+MAX_SUBSET_FOLDS = 12
+
+#: Regime codes of ``regime``.
+REGIMES = {"none": 0, "monostable": 1, "bistable": 2, "multistable": 3}
+
+
+@dataclass(frozen=True)
+class StabilitySearch:
+    """Settings of the equilibrium search at one map point.
+
+    Parameters
+    ----------
+    max_equilibria : int
+        Length of the padded ``equilibrium`` dimension (the lowest-energy distinct equilibria
+        are kept; the counts include all), ≥ 1.
+    distinct_tol : float
+        Two solutions are the same equilibrium when no coordinate differs by more [mm, rad].
+    atol : float
+        Newton tolerance on ‖r‖∞ (N, mm).
+    max_steps : int
+        Newton iterations per seed.
+    max_backtracks : int
+        Line-search halvings per Newton step. A seed costs at most
+        max_steps · (max_backtracks + 1) residual evaluations; most converge in 6–8, the rest
+        are seeds far from any equilibrium, which should fail fast.
+    solve_batch : int
+        Lanes of the solve pool (:func:`biplan.solvers.pool.newton_pool`: solves in flight,
+        a finished lane takes the next seed) for the fixed seeds, ≥ 1.
+    continuation : {"march", "neighbours"}
+        "march" (default): the stable equilibria are continued point by point along the
+        displacement axis, forward through each row and then backward from the equilibria
+        that the forward sweep did not reach; "neighbours": one continuation pass from the
+        stable equilibria of the two neighbouring points (the previous default, with
+        the fixed seeds at every point).
+    seed_spacing : float
+        Largest distance in U/l₀ between two points of a row that get the fixed seeds (the
+        first and last point always do; the march carries the branches to the points in
+        between; a grid coarser than this seeds every point, and so does 0). Default 0.04:
+        every fourth point of a grid with ΔU/l₀ = 0.01. With "neighbours" use 0 (points
+        without seeds would see only their neighbours' states). A point where nothing
+        converged gets the fixed seeds after the march.
+    march_lanes : int
+        Lanes of the pool for the continuation solves, ≥ 1. Default 16, as ``solve_batch``:
+        with every subset seeded a march step continues 15–35 equilibria per row, enough
+        to fill 16 lanes, and one lane count compiles one pool kernel per layout (a 4-row
+        chunk of the 40 × 40 map: 21 s with 16 lanes, 24 s with 8).
+    continuation_steps : int
+        Newton iterations per continuation solve (measured on an 8 × 40 check grid: 6 lose
+        equilibria at 30 of the 320 points, 10 at 13, 15 at none).
+    seeding : {"subsets", "patterns"}
+        The fixed seeds (:func:`seeds`). "subsets" (default): one per subset of the circular
+        folds, 2^N_c, for tubes with at most ``max_subset_folds`` circular folds (more use
+        "patterns"); "patterns": the 3 N_c − 2 patterns of earlier versions, which find
+        only the combinations of open folds next to the base or the free end.
+    max_subset_folds : int
+        Most circular folds for which "subsets" seeds every subset (2^8 = 256 seeds), from 1
+        to :data:`MAX_SUBSET_FOLDS` = 12.
+    """
+
+    max_equilibria: int = 8
+    distinct_tol: float = 1e-4
+    atol: float = 1e-9
+    max_steps: int = 15
+    max_backtracks: int = 4
+    solve_batch: int = 16
+    continuation: str = "march"
+    seed_spacing: float = 0.04
+    march_lanes: int = 16
+    continuation_steps: int = 15
+    seeding: str = "subsets"
+    max_subset_folds: int = 8
+
+    def __post_init__(self) -> None:
+        names = ("max_equilibria", "solve_batch", "max_steps", "max_backtracks", "march_lanes",
+                 "continuation_steps", "max_subset_folds")  # fmt: skip
+        for name in names:
+            object.__setattr__(
+                self, name, check_integer(f"search.{name}", getattr(self, name), low=1)
+            )
+        if self.continuation not in CONTINUATIONS:
+            raise ConfigError("search.continuation", self.continuation, f"one of {CONTINUATIONS}")
+        if self.seeding not in SEEDINGS:
+            raise ConfigError("search.seeding", self.seeding, f"one of {SEEDINGS}")
+        if self.max_subset_folds > MAX_SUBSET_FOLDS:
+            valid = f"an integer from 1 to {MAX_SUBSET_FOLDS} (2^N seeds per point)"
+            raise ConfigError("search.max_subset_folds", self.max_subset_folds, valid)
+        check_range("search.distinct_tol", self.distinct_tol, low=0.0)
+        check_range("search.seed_spacing", self.seed_spacing, low=0.0, low_open=False)
+        self.newton()
+
+    def seed_kind(self, n_circular: int) -> str:
+        """The seeding used for a tube with ``n_circular`` circular folds."""
+        if self.seeding == "subsets" and n_circular <= self.max_subset_folds:
+            return "subsets"
+        return "patterns"
+
+    def newton(self, continuation: bool = False) -> Newton:
+        """Newton settings of the fixed seeds, or of the continuation seeds."""
+        steps = self.continuation_steps if continuation else self.max_steps
+        return Newton(atol=self.atol, max_steps=steps, max_backtracks=self.max_backtracks)
+
+
+@kernel("stability_observe", in_axes=(0, 0, 0))
+def _observe(layout: TubeLayout, p: Any, z: Array, u: Array) -> tuple:
+    load = Load(jnp.asarray(0.0), u, jnp.asarray(1.0))
+    ob = observe(layout, p, z, load, layout.options.weak_contacts_active)
+    return ob.energy, ob.min_eigenvalue, ob.u_z, ob.u_r, ob.force
+
+
+#: Lanes of the observation kernel: fixed, so that the march (``march_lanes``) and the seed
+#: pool (``solve_batch``) share one compiled observation.
+OBSERVE_LANES = 8
+
+
+def points_per_kernel(n_points: int) -> int:
+    """Points (rows of the stacked parameters) of the compiled search kernels for a chunk of
+    ``n_points``: rounded up to a power of two, at least 8. The pool's shapes are set by the
+    padded points and tasks (padding tasks are never solved), so chunks and grids of other
+    sizes in the same bucket share one compiled pool instead of compiling their own
+    (25–45 s each on two cores)."""
+    return max(8, 1 << (max(int(n_points), 1) - 1).bit_length())
+
+
+#: Contact multiplier [N/mm] of the closed contacts of a "pressed" seed (:func:`seeds`).
+PRESS = 1e-3
+
+
+def pushing(tube: Tube, u: np.ndarray) -> np.ndarray:
+    """(len(u), N_c, N_c) booleans: whether circular fold i pushes (law force < 0) when k + 1
+    folds share the displacement u [mm] equally (opening u / (k + 1)); one law evaluation
+    per distinct law."""
+    u = np.asarray(u, dtype=float).reshape(-1)
+    n_circ = tube.n_circular
+    ws = u[:, None] / np.arange(1, n_circ + 1)[None, :]
+    forces: dict[Any, np.ndarray] = {}
+    for law in tube.circular_laws:
+        if law not in forces:
+            forces[law] = np.asarray(law.force(ws)) < 0.0
+    return np.stack([forces[law] for law in tube.circular_laws], axis=1)
+
+
+def seeds(
+    model: Model,
+    u: float,
+    kind: str = "subsets",
+    pressed_only: bool = False,
+    pushes: np.ndarray | None = None,
+) -> np.ndarray:
+    """Packed starting vectors (n_seeds, n_z) for prescribed displacement ``u`` [mm].
+
+    ``kind`` "subsets": one start per subset of the circular folds (2^N_c, all folds closed
+    first), the displacement shared equally by the open folds of the subset — the fold states
+    of the tube's phase-1/phase-2 combinations, every one of which can be a stable
+    equilibrium (the circular folds are in series and nearly equivalent; docs/maps.md).
+    "patterns": the 3 N_c − 2 patterns of earlier versions (all closed, shared by all, one
+    per fold, the k lowest and the k highest folds), which miss most combinations of two or
+    more open folds.
+
+    A start whose open folds all *push* (law force < 0 at their opening: between a
+    bistable law's unloaded open opening and its second zero) is added a second time,
+    *pressed*: with multiplier :data:`PRESS` on every closed contact. Such a state can be an
+    equilibrium held by the contacts alone — the tube in compression, every other fold pressed
+    shut, no free direction left (a contact-locked state, stable by MODEL.md §12). Newton from
+    zero multipliers treats a closed gap and its multiplier alike and opens the gaps, so it
+    leaves such states; from the pressed start it keeps the gaps shut and finds the
+    multipliers (docs/maps.md, "contact-locked states"). ``pressed_only``: only these
+    (possibly none: shape (0, n_z)). ``pushes``: :func:`pushing` of this ``u`` (computed
+    when not given).
+    """
+    nq = model.n_coordinates
+    n_circ = model.tube.n_circular
+    first = nq - n_circ
+    patterns: list[np.ndarray]
+    if kind == "subsets":
+        patterns = [
+            np.isin(np.arange(n_circ), c).astype(float)
+            for k in range(n_circ + 1)
+            for c in itertools.combinations(range(n_circ), k)
+        ]
+    else:
+        patterns = [np.zeros(n_circ), np.ones(n_circ)]
+        patterns += [np.eye(n_circ)[i] for i in range(n_circ)]
+        for k in range(2, n_circ):
+            patterns += [np.r_[np.ones(k), np.zeros(n_circ - k)]]
+            patterns += [np.r_[np.zeros(n_circ - k), np.ones(k)]]
+    if pushes is None:
+        pushes = pushing(model.tube, np.array([u]))[0]
+    lam_c = slice(nq + model.n_guides, nq + model.n_guides + model.n_contacts)
+    n_z = lam_c.stop + 1
+    plain, pressed = [], []
+    for pat in patterns:
+        k = int(pat.sum())
+        push = k > 0 and bool(pushes[pat > 0, k - 1].all())
+        if pressed_only and not push:
+            continue
+        z = np.zeros(n_z)
+        if k > 0:
+            z[first:nq] = pat * u / k
+        plain.append(z)
+        if push:
+            zp = z.copy()
+            zp[lam_c] = np.where(model.contact_gaps(z[:nq]) < ACTIVE_GAP, PRESS, 0.0)
+            pressed.append(zp)
+    out = pressed if pressed_only else plain + pressed
+    return np.asarray(out).reshape(-1, n_z)
+
+
+def max_seeds(n_circular: int, kind: str) -> int:
+    """Most starts :func:`seeds` returns for ``n_circular`` folds (pressed ones included)."""
+    n = 2**n_circular if kind == "subsets" else 3 * n_circular - 2
+    return 2 * n
+
+
+def _same(others: Any, z: np.ndarray, nq: int, tol: float) -> np.ndarray:
+    """Whether each of ``others`` (k, n_z; may be empty) is the equilibrium ``z``: closer than
+    ``tol`` in every coordinate q (multipliers are not compared). The one closeness test of
+    the search (distinct equilibria, shared observations, the backward sweep)."""
+    rows = np.asarray(others, dtype=float).reshape(-1, z.shape[-1])
+    return np.max(np.abs(rows[:, :nq] - z[:nq]), axis=1) <= tol
+
+
+def _distinct(z: np.ndarray, energy: np.ndarray, nq: int, tol: float) -> list[int]:
+    """Indices of distinct solutions (lowest energy first)."""
+    keep: list[int] = []
+    for i in np.argsort(energy, kind="stable"):
+        if not _same(z[keep], z[i], nq, tol).any():
+            keep.append(int(i))
+    return keep
+
+
+@dataclass(frozen=True)
+class StabilityEvaluator:
+    """Distinct equilibria and their stability at every grid point (see module docstring)."""
+
+    search: StabilitySearch = StabilitySearch()
+    name: str = "stability_count"
+    load_axes: tuple[str, ...] = ("displacement",)
+
+    def dim_sizes(self, design: Tube) -> dict[str, int]:
+        return {
+            "equilibrium": self.search.max_equilibria,
+            "coordinate": design.layout.n_coordinates,
+        }
+
+    def variables(self, design: Tube) -> dict[str, tuple[tuple[str, ...], str, str]]:
+        e = ("equilibrium",)
+        return {
+            "n_stable": ((), "1", "number of distinct stable equilibria"),
+            "n_equilibria": ((), "1", "number of distinct equilibria found"),
+            "regime": ((), "1", "0 none, 1 monostable, 2 bistable, 3 multistable"),
+            "energy": (e, "N*mm", "strain energy of each equilibrium (lowest first)"),
+            "stable": (e, "1", "1 stable, 0 unstable or critical"),
+            "min_eigenvalue": (e, "N*mm", "smallest reduced-Hessian eigenvalue"),
+            "force": (e, "N", "end reaction force"),
+            "u_z": (e, "1", "axial endpoint displacement u_z / l0"),
+            "u_r": (e, "1", "radial endpoint displacement u_r / l0"),
+            "q": (("equilibrium", "coordinate"), "mm|rad", "generalised coordinates"),
+            "status": ((), "1", "0 ok; see flag_meanings"),
+        }
+
+    def describe(self) -> dict[str, Any]:
+        s = self.search
+        return {
+            "solver": "multi-seed Newton under displacement control + neighbour continuation",
+            "max_equilibria": s.max_equilibria,
+            "distinct_tol": s.distinct_tol,
+            "atol": s.atol,
+            "max_steps": s.max_steps,
+            "max_backtracks": s.max_backtracks,
+            "continuation": s.continuation,
+            "seed_spacing": s.seed_spacing,
+            "seeding": s.seeding,
+            "continuation_steps": s.continuation_steps,
+            "stability_tol": STABILITY_TOL,
+        }
+
+    def finish(self, ds: Any) -> Any:
+        if "displacement" in ds.dims:
+            axis = list(ds["regime"].dims).index("displacement")
+            band = transition_band(ds["regime"].values, axis)
+            ds["transition"] = (ds["regime"].dims, band.astype(np.int8), {
+                "units": "1", "long_name": "1 inside the transition band"})  # fmt: skip
+        return ds
+
+    def _solve_all(
+        self,
+        layout: TubeLayout,
+        params: Any,
+        rows: np.ndarray,
+        z0: np.ndarray,
+        u: np.ndarray,
+        capacity: int,
+        lanes: int,
+        newton: Newton,
+    ) -> list[np.ndarray]:
+        """Solve every (point row, seed) task on a lane-refilling pool of ``lanes`` lanes
+        (:func:`biplan.solvers.pool.newton_pool`), then observe the converged ones."""
+        n = len(rows)
+        cap = max(capacity, n)
+        pad = cap - n
+        point = np.r_[rows, np.zeros(pad, dtype=int)].astype(np.int32)
+        zz = np.concatenate([z0, np.repeat(z0[-1:], pad, axis=0)])
+        uu = np.r_[u, np.zeros(pad)]
+        loads = Load(jnp.zeros(cap), jnp.asarray(uu), jnp.ones(cap))
+        res = newton_pool.compiled(layout, lanes)(
+            params, jnp.asarray(point), jnp.asarray(zz), loads, jnp.asarray(n),
+            newton.settings(),
+        )  # fmt: skip
+        z = np.asarray(res.z)[:n]
+        ok = (np.asarray(res.status)[:n] == Status.CONVERGED.value) & np.all(np.isfinite(z), 1)
+        obs = [np.full(n, np.nan) for _ in range(5)]
+        # observe one solution per distinct equilibrium of a point; copies share its values
+        nq = layout.n_coordinates
+        rep = np.arange(n)
+        for j in np.unique(rows[ok]):
+            sel = np.flatnonzero(ok & (rows == j))
+            for a, i in enumerate(sel):
+                near = _same(z[sel[:a]], z[i], nq, self.search.distinct_tol)
+                if near.any():
+                    rep[i] = rep[sel[:a][near][0]]
+        idx = np.flatnonzero(ok & (rep == np.arange(n)))
+        fn = _observe.compiled(layout)
+        for lo in range(0, idx.size, OBSERVE_LANES):
+            part = idx[lo : lo + OBSERVE_LANES]
+            full = np.r_[part, np.full(OBSERVE_LANES - part.size, part[-1])]
+            p = jax.tree_util.tree_map(lambda a, r=rows[full]: a[r], params)
+            out = fn(p, jnp.asarray(z[full]), jnp.asarray(u[full]))
+            for o, v in zip(obs, out, strict=True):
+                o[part] = np.asarray(v)[: part.size]
+        copies = np.flatnonzero(ok & (rep != np.arange(n)))
+        for o in obs:
+            o[copies] = o[rep[copies]]
+        return [z, ok, *obs]
+
+    def evaluate(
+        self, tubes: Sequence[Tube], loads: Sequence[Mapping[str, float]], batch: int
+    ) -> dict[str, np.ndarray]:
+        """Equilibria of every point (tubes of one or several layouts)."""
+        n = len(tubes)
+        m_eq = self.search.max_equilibria
+        nq_all = tubes[0].layout.n_coordinates
+        out = {
+            "n_stable": np.zeros(n),
+            "n_equilibria": np.zeros(n),
+            "regime": np.zeros(n),
+            "status": np.zeros(n, dtype=np.int64),
+            "q": np.full((n, m_eq, nq_all), np.nan),
+        }
+        for key in ("energy", "stable", "min_eigenvalue", "force", "u_z", "u_r"):
+            out[key] = np.full((n, m_eq), np.nan)
+        groups: dict[Any, list[int]] = {}
+        for i, t in enumerate(tubes):
+            groups.setdefault(t.layout, []).append(i)
+        for layout, which in groups.items():
+            found = self._search_group(layout, [tubes[i] for i in which],
+                                       [loads[i] for i in which], batch)  # fmt: skip
+            for j, i in enumerate(which):
+                self._store(out, i, found[j], tubes[i].initial_length, layout.n_coordinates)
+        return out
+
+    def _search_group(
+        self, layout: TubeLayout, tubes: list[Tube], loads: list[Mapping[str, float]], batch: int
+    ) -> list[dict[str, Any]]:
+        """Seeds, then continuation, for the points of one layout (see module docstring)."""
+        s = self.search
+        models = [Model(t) for t in tubes]
+        size = points_per_kernel(max(batch, len(models)))
+        params = stack_params(models, size)
+        kind = s.seed_kind(tubes[0].n_circular)
+        n_seeds = max_seeds(tubes[0].n_circular, kind)
+        capacity = size * max(n_seeds, 2 * s.max_equilibria)
+        u = [
+            float(ld["displacement"]) * t.initial_length for ld, t in zip(loads, tubes, strict=True)
+        ]
+        nq = models[0].n_coordinates
+        acc = _Solutions(len(models), nq, s.distinct_tol)
+
+        def solve(rows: list[int], z0: list[np.ndarray], cont: bool) -> list[np.ndarray]:
+            r = np.asarray(rows, dtype=int)
+            lanes = s.march_lanes if cont and s.continuation == "march" else s.solve_batch
+            sols = self._solve_all(layout, params, r, np.asarray(z0), np.asarray(u)[r],
+                                   capacity, lanes, s.newton(cont))  # fmt: skip
+            acc.add(r, sols)
+            return sols
+
+        # rows: runs of consecutive points of the same design (the displacement axis)
+        rows_of: list[list[int]] = []
+        for j in range(len(models)):
+            if rows_of and tubes[rows_of[-1][-1]] == tubes[j]:
+                rows_of[-1].append(j)
+            else:
+                rows_of.append([j])
+        # 1. fixed seeds at the seeded points of every row
+        disp = [float(ld["displacement"]) for ld in loads]
+        seeded = [j for row in rows_of for j in self._seeded([disp[k] for k in row], row)]
+
+        same_folds = len({t.circular_laws for t in tubes}) == 1
+        pushes = pushing(tubes[0], np.asarray(u)) if same_folds else None
+
+        def fixed_seeds(points: list[int], pressed_elsewhere: bool = False) -> None:
+            rows, z0 = [], []
+            for j in range(len(models)) if pressed_elsewhere else points:
+                push = None if pushes is None else pushes[j]
+                sd = seeds(models[j], u[j], kind, pressed_only=j not in points, pushes=push)
+                rows += [j] * len(sd)
+                z0 += list(sd)
+            if rows:
+                solve(rows, z0, False)
+
+        # the pressed seeds run at every point: contact-locked states live in windows
+        # narrower than the seed spacing, and continuation from a state in tension does not
+        # enter them (its closing contacts start without multipliers)
+        fixed_seeds(seeded, pressed_elsewhere=True)
+        # 2. continuation along the displacement axis
+        if s.continuation == "neighbours":
+            rows, z0 = [], []
+            for row in rows_of:
+                for pos, j in enumerate(row):
+                    for nb in (pos - 1, pos + 1):
+                        if 0 <= nb < len(row):
+                            for zs in acc.stable(row[nb]):
+                                rows.append(j)
+                                z0.append(zs)
+            if rows:
+                solve(rows, z0, True)
+            return acc.collect()
+        # march: forward through every row, then backward from the equilibria that the
+        # forward pass did not reach from the point before (branches born in between)
+        reached: list[list[np.ndarray]] = [[] for _ in models]
+        longest = max(len(r) for r in rows_of)
+        for pos in range(1, longest):
+            rows, z0 = [], []
+            for row in rows_of:
+                if pos < len(row):
+                    for zs in acc.stable(row[pos - 1]):
+                        rows.append(row[pos])
+                        z0.append(zs)
+            if rows:
+                sols = solve(rows, z0, True)
+                for k, j in enumerate(rows):
+                    if sols[1][k]:
+                        reached[j].append(sols[0][k])
+        for pos in range(longest - 2, -1, -1):
+            rows, z0 = [], []
+            for row in rows_of:
+                if pos < len(row) - 1:
+                    for zs in acc.stable(row[pos + 1]):
+                        if not _same(reached[row[pos + 1]], zs, nq, s.distinct_tol).any():
+                            rows.append(row[pos])
+                            z0.append(zs)
+            if rows:
+                solve(rows, z0, True)
+        # a point left without any equilibrium gets the fixed seeds after all
+        fixed_seeds([j for j in range(len(models)) if j not in seeded and not acc.any(j)])
+        return acc.collect()
+
+    def _seeded(self, disp: list[float], row: list[int]) -> list[int]:
+        """The points of a row that get the fixed seeds: the first, the last, and enough in
+        between that no two consecutive seeded points are more than ``seed_spacing`` apart
+        in U/l₀ (every point when the grid is coarser than that)."""
+        spacing = self.search.seed_spacing * (1.0 + 1e-9)
+        out, last = [], 0
+        for pos in range(len(row)):
+            nxt = pos + 1
+            if pos == 0 or nxt == len(row) or abs(disp[nxt] - disp[last]) > spacing:
+                out.append(row[pos])
+                last = pos
+        return out
+
+    def _store(self, out: dict[str, np.ndarray], i: int, f: dict, l0: float, nq: int) -> None:
+        n_eq = len(f["energy"])
+        n_st = int(np.sum(f["stable"]))
+        out["n_equilibria"][i] = n_eq
+        out["n_stable"][i] = n_st
+        out["regime"][i] = min(n_st, 3)
+        if n_eq == 0:
+            out["status"][i] = 1
+            out["n_stable"][i] = out["n_equilibria"][i] = out["regime"][i] = np.nan
+            return
+        k = min(n_eq, self.search.max_equilibria)
+        out["energy"][i, :k] = f["energy"][:k]
+        out["stable"][i, :k] = f["stable"][:k]
+        out["min_eigenvalue"][i, :k] = f["lam"][:k]
+        out["force"][i, :k] = f["force"][:k]
+        out["u_z"][i, :k] = f["u_z"][:k] / l0
+        out["u_r"][i, :k] = f["u_r"][:k] / l0
+        w = min(nq, out["q"].shape[2])
+        out["q"][i, :k, :w] = f["z"][:k, :w]
+
+
+class _Solutions:
+    """The converged solutions found so far at every point of a group, and their distinct
+    equilibria (lowest energy first)."""
+
+    def __init__(self, n_points: int, nq: int, tol: float) -> None:
+        self.n_points, self.nq, self.tol = n_points, nq, tol
+        self.rows: list[np.ndarray] = []
+        self.sols: list[list[np.ndarray]] = []
+        self._cache: dict[int, dict[str, Any]] = {}
+
+    def add(self, rows: np.ndarray, sols: list[np.ndarray]) -> None:
+        self.rows.append(rows)
+        self.sols.append(sols)
+        self._cache.clear()
+
+    def point(self, j: int) -> dict[str, Any]:
+        if j not in self._cache:
+            sel = [
+                np.flatnonzero((r == j) & s[1]) for r, s in zip(self.rows, self.sols, strict=True)
+            ]
+            z, energy, lam, uz, ur, force = (
+                np.concatenate([s[k][i] for s, i in zip(self.sols, sel, strict=True)])
+                for k in (0, 2, 3, 4, 5, 6)
+            )
+            keep = _distinct(z, energy, self.nq, self.tol)
+            stable = lam[keep] > STABILITY_TOL
+            self._cache[j] = {
+                "z": z[keep], "energy": energy[keep], "lam": lam[keep], "u_z": uz[keep],
+                "u_r": ur[keep], "force": force[keep], "stable": stable,
+                "z_stable": z[keep][stable],
+            }  # fmt: skip
+        return self._cache[j]
+
+    def any(self, j: int) -> bool:
+        """Whether any solve converged at point ``j``."""
+        return len(self.point(j)["energy"]) > 0
+
+    def stable(self, j: int) -> np.ndarray:
+        return self.point(j)["z_stable"]
+
+    def collect(self) -> list[dict[str, Any]]:
+        return [self.point(j) for j in range(self.n_points)]
+
+
+def stability_chunk_size(n_displacements: int, min_points: int = 128) -> int:
+    """Points per chunk for a map with ``n_displacements`` values on its last axis: whole rows
+    (continuation stays inside a chunk), at least ``min_points`` points, so that each
+    continuation step of the march solves the rows of a chunk together."""
+    rows = max(1, -(-min_points // max(n_displacements, 1)))
+    return rows * n_displacements
+
+
+def transition_band(regime: np.ndarray, axis: int = -1) -> np.ndarray:
+    """Boolean mask of the transition band along ``axis`` (the displacement axis).
+
+    In each row, when the regime changes more than once, the band runs from the first point
+    whose regime differs from its predecessor up to (excluding) the last such point, from which
+    the final regime holds; rows with at most one change have no band. NaN (failed) points are
+    skipped.
+    """
+    r = np.moveaxis(np.asarray(regime, dtype=float), axis, -1)
+    band = np.zeros(r.shape, dtype=bool)
+    for idx in np.ndindex(r.shape[:-1]):
+        row = r[idx]
+        valid = np.flatnonzero(np.isfinite(row))
+        if valid.size < 2:
+            continue
+        changes = valid[1:][np.diff(row[valid]) != 0]
+        if changes.size >= 2:
+            band[idx][changes[0] : changes[-1]] = True
+    return np.moveaxis(band, -1, axis)

@@ -1,0 +1,260 @@
+"""The result of a state enumeration: :class:`StateCatalogue` and its labelled forms.
+
+``to_dataset()`` gives an ``xarray.Dataset`` (dims ``state``, ``coordinate``, ``fold``,
+``seed``; ``attrs["kind"] = "states"``) that :mod:`biplan.plot.gallery` and the CLI read, and
+``from_dataset(ds, model)`` the catalogue back (what ``biplan path --states`` reads);
+``rows()`` gives one dict per state with the CSV columns
+``name,label,bits,energy,u_z,u_r,theta,Theta,min_eigenvalue,n_open_helical,n_open_circular,seeds``.
+"""
+
+from __future__ import annotations
+
+import json
+from dataclasses import dataclass
+from typing import Any
+
+import numpy as np
+
+from biplan.analysis.states.search import Enumeration, SeedOutcome, StableState
+from biplan.geometry import FoldRef
+from biplan.model.assembly import Model
+
+__all__ = ["CSV_COLUMNS", "STRAIGHT", "StateCatalogue"]
+
+#: Columns of the CSV form, in order.
+CSV_COLUMNS = (
+    "name",
+    "label",
+    "bits",
+    "energy",
+    "u_z",
+    "u_r",
+    "theta",
+    "Theta",
+    "min_eigenvalue",
+    "n_open_helical",
+    "n_open_circular",
+    "seeds",
+)
+
+#: End slopes |θ| at or below this [rad] count as straight: the contact smoothing (ε = 1e-6)
+#: leaves closed folds open by O(ε) mm, which tilts the end of a tube whose open folds are all
+#: circular by ~1e-7 rad. Normalising by such a max|θ| would turn rounding into Θ = ±1.
+STRAIGHT = 1e-6
+
+
+@dataclass(frozen=True)
+class StateCatalogue:
+    """Distinct stable states of a tube, every seed's outcome, and the rejected equilibria.
+
+    Attributes
+    ----------
+    folds : tuple of FoldRef
+        The bistable folds, free end first (the order of every ``bits``).
+    states : tuple of StableState
+    seeds : tuple of SeedOutcome
+        One per seed, in seed order (seed bits counting up from 0…0).
+    unstable_z : ndarray (k, n_z)
+        Distinct converged equilibria rejected as not stable.
+    unstable_eigenvalues : ndarray (k,)
+        Their smallest reduced-Hessian eigenvalues [N/mm] (≤ the stability tolerance).
+    elapsed : float
+        Wall time [s] of the enumeration.
+    """
+
+    model: Model
+    folds: tuple[FoldRef, ...]
+    states: tuple[StableState, ...]
+    seeds: tuple[SeedOutcome, ...]
+    unstable_z: np.ndarray
+    unstable_eigenvalues: np.ndarray
+    settings: Enumeration
+    elapsed: float
+
+    def __len__(self) -> int:
+        return len(self.states)
+
+    @property
+    def names(self) -> tuple[str, ...]:
+        """Unique state names (the label, suffixed ``.2``… for repeated bits)."""
+        return tuple(s.name for s in self.states)
+
+    def state(self, name: str) -> StableState:
+        """The state of a name (or label)."""
+        for s in self.states:
+            if name in (s.name, s.label):
+                return s
+        from biplan._errors import ConfigError
+
+        raise ConfigError("state", name, f"one of {', '.join(self.names)}")
+
+    @property
+    def max_abs_theta(self) -> float:
+        """max |θ| [rad] over the stable states: the normaliser of Θ."""
+        theta = np.abs([s.theta for s in self.states])
+        return float(theta.max()) if theta.size else 0.0
+
+    def slope(self, state: StableState) -> float:
+        """Θ = θ / max|θ| (0 when every state is straight: max|θ| ≤ :data:`STRAIGHT`)."""
+        m = self.max_abs_theta
+        return state.theta / m if m > STRAIGHT else 0.0
+
+    def open_counts(self, state: StableState) -> tuple[int, int]:
+        """(open helical, open circular) folds of a state."""
+        hel = sum(b for b, f in zip(state.bits, self.folds, strict=True) if f.set == "helical")
+        return hel, sum(state.bits) - hel
+
+    @property
+    def mismatched_seeds(self) -> tuple[SeedOutcome, ...]:
+        """Seeds that relaxed to a stable state other than their own bits."""
+        return tuple(s for s in self.seeds if s.outcome == "stable" and not s.matches_seed)
+
+    def rows(self) -> list[dict[str, Any]]:
+        """One dict per state with the :data:`CSV_COLUMNS`."""
+        out = []
+        for s in self.states:
+            hel, circ = self.open_counts(s)
+            out.append(
+                {
+                    "name": s.name,
+                    "label": s.label,
+                    "bits": "".join(map(str, s.bits)),
+                    "energy": s.energy,
+                    "u_z": s.u_z,
+                    "u_r": s.u_r,
+                    "theta": s.theta,
+                    "Theta": self.slope(s),
+                    "min_eigenvalue": s.min_eigenvalue,
+                    "n_open_helical": hel,
+                    "n_open_circular": circ,
+                    "seeds": " ".join(s.seeds),
+                }
+            )
+        return out
+
+    def to_dataset(self) -> Any:
+        """The catalogue as an ``xarray.Dataset`` (``attrs["kind"] = "states"``)."""
+        import xarray as xr
+
+        n_q = self.model.layout.n_coordinates
+        n_z = self.unstable_z.shape[1] if self.unstable_z.ndim == 2 else n_q
+        rows = self.rows()
+        names = [r["name"] for r in rows]
+        data: dict[str, Any] = {
+            key: (("state",), np.asarray([r[key] for r in rows]))
+            for key in CSV_COLUMNS
+            if key != "name"
+        }
+        data["q"] = (
+            ("state", "coordinate"),
+            np.asarray([s.q for s in self.states]).reshape(-1, n_q),
+        )
+        data["z"] = (("state", "packed"), np.asarray([s.z for s in self.states]).reshape(-1, n_z))
+        data["phase_fraction"] = (  # every fold, named as in the result files
+            ("state", "fold", "phase"),
+            np.asarray([s.phase_fraction for s in self.states]).reshape(len(rows), -1, 3),
+        )
+        data["seed_outcome"] = (("seed",), np.asarray([s.outcome for s in self.seeds]))
+        data["seed_state"] = (("seed",), np.asarray([s.state or "" for s in self.seeds]))
+        data["seed_reached"] = (
+            ("seed",),
+            np.asarray(["".join(map(str, s.reached_bits)) for s in self.seeds]),
+        )
+        data["seed_min_eigenvalue"] = (
+            ("seed",),
+            np.asarray([s.min_eigenvalue for s in self.seeds]),
+        )
+        ds = xr.Dataset(
+            data,
+            coords={
+                "state": names,
+                "seed": [s.seed for s in self.seeds],
+                "fold": list(self.model.layout.fold_names),
+                "phase": ["closed", "spinodal", "open"],
+            },
+        )
+        units = {
+            "energy": "N mm",
+            "u_z": "mm",
+            "u_r": "mm",
+            "theta": "rad",
+            "min_eigenvalue": "N/mm",
+        }
+        for key, unit in units.items():
+            ds[key].attrs["units"] = unit
+        ds.attrs.update(
+            kind="states",
+            folds=json.dumps([[f.set, f.index] for f in self.folds]),
+            bit_folds=", ".join(self.model.layout.fold_name(f) for f in self.folds),
+            initial_length=self.model.tube.initial_length,
+            n_seeds=len(self.seeds),
+            n_stable=len(self.states),
+            n_unstable_equilibria=len(self.unstable_eigenvalues),
+            n_failed_seeds=sum(s.outcome == "failed" for s in self.seeds),
+            n_mismatched_seeds=len(self.mismatched_seeds),
+            elapsed_s=self.elapsed,
+        )
+        return ds
+
+    @classmethod
+    def from_dataset(cls, ds: Any, model: Model) -> StateCatalogue:
+        """The catalogue of a dataset written by :meth:`to_dataset` (a ``states.nc`` file),
+        for the model of its tube.
+
+        The states (coordinates, energies, endpoints, eigenvalues, phase fractions, seeds) and
+        every seed's outcome come back; what the file does not hold stays empty: the rejected
+        unstable equilibria, and each seed's residual (NaN) and failure message. The caller
+        checks that ``model`` is the catalogue's tube (:mod:`biplan.io.catalogue`).
+        """
+        from biplan.analysis.states.labels import label_to_bits
+
+        folds = tuple(FoldRef(str(s), int(i)) for s, i in json.loads(ds.attrs["folds"]))
+        n_bits = len(folds)
+
+        def bits(text: Any) -> tuple[int, ...]:
+            return tuple(int(c) for c in str(text))
+
+        def column(name: str) -> np.ndarray:
+            return np.asarray(ds[name].values)
+
+        states = tuple(
+            StableState(
+                name=str(name),
+                label=str(column("label")[k]),
+                bits=bits(column("bits")[k]),
+                q=np.asarray(column("q")[k], dtype=float),
+                z=np.asarray(column("z")[k], dtype=float),
+                energy=float(column("energy")[k]),
+                u_z=float(column("u_z")[k]),
+                u_r=float(column("u_r")[k]),
+                theta=float(column("theta")[k]),
+                min_eigenvalue=float(column("min_eigenvalue")[k]),
+                phase_fraction=np.asarray(column("phase_fraction")[k], dtype=float),
+                seeds=tuple(str(column("seeds")[k]).split()),
+            )
+            for k, name in enumerate(column("state"))
+        )
+        seeds = tuple(
+            SeedOutcome(
+                seed=str(seed),
+                seed_bits=label_to_bits(str(seed), n_bits),
+                reached_bits=bits(column("seed_reached")[k]),
+                outcome=str(column("seed_outcome")[k]),
+                state=str(column("seed_state")[k]) or None,
+                min_eigenvalue=float(column("seed_min_eigenvalue")[k]),
+                residual=float("nan"),
+                message="",
+            )
+            for k, seed in enumerate(column("seed"))
+        )
+        n_z = states[0].z.size if states else model.layout.n_coordinates
+        return cls(
+            model=model,
+            folds=folds,
+            states=states,
+            seeds=seeds,
+            unstable_z=np.zeros((0, n_z)),
+            unstable_eigenvalues=np.zeros(0),
+            settings=Enumeration(),
+            elapsed=float(ds.attrs.get("elapsed_s", 0.0)),
+        )

@@ -1,0 +1,76 @@
+"""Fold-state bits and hexadecimal labels of stable states (SI "state transition diagram").
+
+A fully bistable MFT's configuration is named by one bit per bistable fold — 0 closed, 1 open
+— ordered **from the free end toward the clamped base** in physical order along the tube
+(MODEL §15 CHOICE B1: for four modules without a base fold, H₄ C₃|₄ H₃ C₂|₃ H₂ C₁|₂ H₁). The
+bits are left-padded with zeros to a multiple of four and written in hexadecimal, two digits
+for seven folds: 0011011 → 00011011 → ``1B``.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+
+from biplan._errors import ConfigError
+from biplan.geometry import FoldRef
+from biplan.model.tube import Tube
+
+__all__ = ["bistable_folds", "bits_to_label", "hamming", "label_to_bits", "physical_folds"]
+
+
+def physical_folds(tube: Tube) -> tuple[FoldRef, ...]:
+    """Every fold of the tube in physical order, free end first.
+
+    Helical fold of module N, the circular fold between modules N−1 and N, …, helical fold of
+    module 1, then the base circular fold when the tube has one.
+    """
+    connectors = tube.layout.connectors
+    above: dict[int | None, int] = {}
+    for index, c in enumerate(connectors):
+        above[c.lower] = index  # the connector on top of module c.lower (None: the clamp)
+    out: list[FoldRef] = []
+    for module in reversed(range(tube.n_modules)):
+        out.append(FoldRef("helical", module))
+        below = next((i for i, c in enumerate(connectors) if c.upper == module), None)
+        if below is not None:
+            out.append(FoldRef("circular", below))
+    return tuple(out)
+
+
+def bistable_folds(tube: Tube) -> tuple[FoldRef, ...]:
+    """The folds whose law is bistable, free end first: the bits of a state label."""
+    laws = {"helical": tube.helical_laws, "circular": tube.circular_laws}
+    return tuple(f for f in physical_folds(tube) if laws[f.set][f.index].is_bistable)
+
+
+def bits_to_label(bits: Sequence[int]) -> str:
+    """Hexadecimal label of a bit sequence (free end first), zero-padded to whole digits.
+
+    >>> bits_to_label((0, 0, 1, 1, 0, 1, 1))
+    '1B'
+    """
+    if not bits or any(b not in (0, 1) for b in bits):
+        raise ConfigError("bits", tuple(bits), "a non-empty sequence of 0/1")
+    digits = (len(bits) + 3) // 4
+    value = int("".join(str(int(b)) for b in bits), 2)
+    return f"{value:0{digits}X}"
+
+
+def label_to_bits(label: str, n_bits: int) -> tuple[int, ...]:
+    """Bits (free end first) of a hexadecimal label for a tube with ``n_bits`` bistable folds."""
+    try:
+        value = int(label, 16)
+    except ValueError:
+        raise ConfigError("label", label, "a hexadecimal state label such as '1B'") from None
+    if n_bits < 1 or value >= 2**n_bits or len(label) != (n_bits + 3) // 4:
+        raise ConfigError(
+            "label", label, f"{(n_bits + 3) // 4} hex digits below {2**n_bits:X} ({n_bits} folds)"
+        )
+    return tuple(int(c) for c in format(value, f"0{n_bits}b"))
+
+
+def hamming(a: Sequence[int], b: Sequence[int]) -> int:
+    """Number of folds in which two bit sequences differ."""
+    if len(a) != len(b):
+        raise ConfigError("bits", (tuple(a), tuple(b)), "sequences of equal length")
+    return sum(int(x != y) for x, y in zip(a, b, strict=True))

@@ -1,0 +1,361 @@
+"""Enumeration of the stable states of a multistable MFT (SI "state transition diagram", MODEL §15).
+
+:func:`enumerate_states` seeds combinations of closed/open bistable folds — all 2ⁿ of them
+(:attr:`Search.EXHAUSTIVE`; 128 for the four-module fully bistable tube) or those reached by
+single-fold changes from the all-closed one (:attr:`Search.NEIGHBOURHOOD`;
+:mod:`biplan.analysis.states.seeding`) — relaxes them on refilled ``vmap`` lanes
+(:mod:`biplan.solvers._relaxkernel`: a kinematic seed toward the target fold openings, a
+modified-Newton descent of the energy at zero end load with the base clamped, and the exact
+KKT solve), classifies each fold by the phase that occupies the greater part of its length,
+keeps the equilibria whose reduced Hessian is positive definite and merges duplicates: two
+equilibria are one state when max |Δq| < ``Enumeration.duplicate_tolerance`` (a k-d tree in
+the max norm finds the candidates). Equilibria with the same bits but different coordinates
+stay distinct states.
+
+Every seed's outcome is kept (:class:`SeedOutcome`): the state it reached, whether its bits
+are the seed's own, or why it was rejected (unstable equilibrium with its eigenvalue, failed
+solve). Nothing is merged silently.
+"""
+
+from __future__ import annotations
+
+import time
+from collections.abc import Callable
+from dataclasses import dataclass, field, replace
+from typing import TYPE_CHECKING, Any
+
+import numpy as np
+
+from biplan._compile.setup import jnp
+from biplan._errors import ConfigError, ConvergenceError, check_integer, check_range
+from biplan.analysis.stability import Verdict, classify
+from biplan.analysis.states import seeding
+from biplan.analysis.states.labels import bistable_folds, bits_to_label, label_to_bits
+from biplan.analysis.states.seeding import Search, fold_vector_index, relax_seeds, seed_targets
+from biplan.model.assembly import Load, Model, phase_fractions
+from biplan.solvers.newton import Newton, Solution, Status, solve_equilibrium
+from biplan.solvers.observe import STABILITY_TOL
+
+if TYPE_CHECKING:
+    from biplan.analysis.maps.sweeps import ChunkSink
+    from biplan.analysis.scaleout import Runner
+    from biplan.analysis.states.catalogue import StateCatalogue
+
+__all__ = [
+    "Enumeration",
+    "Search",
+    "SeedOutcome",
+    "StableState",
+    "enumerate_states",
+    "fold_vector_index",
+    "relax_state",
+    "state_bits",
+]
+
+#: Largest number of bistable folds enumerated exhaustively (2¹⁸ seeds).
+MAX_FOLDS = 18
+
+
+@dataclass(frozen=True)
+class Enumeration:
+    """Settings of the seeded relaxation.
+
+    Parameters
+    ----------
+    penalty_stiffness : float
+        k_p [N/mm] of the guide and contact penalties of the descent (the final KKT solve is
+        exact; k_p only sets how close the descent lands).
+    max_iterations : int
+        Most modified-Newton descent iterations per seed.
+    newton : Newton
+        Settings of the final KKT Newton solve (atol is the equilibrium tolerance).
+    chunk : int
+        Seeds per call of the compiled relaxation (fixed shape: one compilation for every
+        chunk; the last chunk is padded, its padding costs nothing).
+    lanes : int
+        Seeds in flight inside a call: the descent and the polish run on ``lanes`` refilled
+        ``vmap`` lanes, so a slow seed holds one lane, not the chunk.
+    duplicate_tolerance : float
+        Two equilibria are the same state when max |Δq| is below this [mm, rad].
+    stability_tolerance : float
+        λ_min of the reduced Hessian above this [N/mm] is stable.
+    """
+
+    penalty_stiffness: float = 1e4
+    max_iterations: int = 300
+    newton: Newton = field(default_factory=Newton)
+    chunk: int = 128
+    lanes: int = 8
+    duplicate_tolerance: float = 1e-5
+    stability_tolerance: float = STABILITY_TOL
+
+    def __post_init__(self) -> None:
+        check_range("Enumeration.penalty_stiffness", self.penalty_stiffness, low=0.0)
+        check_range("Enumeration.duplicate_tolerance", self.duplicate_tolerance, low=0.0)
+        check_range("Enumeration.stability_tolerance", self.stability_tolerance, low=0.0)
+        for name in ("max_iterations", "chunk", "lanes"):
+            v = check_integer(f"Enumeration.{name}", getattr(self, name), low=1)
+            object.__setattr__(self, name, v)
+
+
+@dataclass(frozen=True)
+class StableState:
+    """A distinct stable equilibrium at zero end load.
+
+    ``bits`` are the fold states (free end first,
+    :func:`~biplan.analysis.states.labels.bistable_folds`),
+    ``name`` is the label, made unique with a suffix (``1B.2``) when two distinct states share
+    bits. Lengths in mm, θ in rad, energy in N·mm, eigenvalue in N/mm.
+    """
+
+    name: str
+    label: str
+    bits: tuple[int, ...]
+    q: np.ndarray
+    z: np.ndarray
+    energy: float
+    u_z: float
+    u_r: float
+    theta: float
+    min_eigenvalue: float
+    phase_fraction: np.ndarray  # (N + Nc, 3): closed, spinodal, open
+    seeds: tuple[str, ...]
+
+
+@dataclass(frozen=True)
+class SeedOutcome:
+    """What one seed relaxed to.
+
+    ``outcome`` is ``"stable"`` (``state`` names the state), ``"unstable"`` (an equilibrium
+    with λ_min ≤ tolerance), or ``"failed"`` (no converged equilibrium; ``message`` says why).
+    """
+
+    seed: str
+    seed_bits: tuple[int, ...]
+    reached_bits: tuple[int, ...]
+    outcome: str
+    state: str | None
+    min_eigenvalue: float
+    residual: float
+    message: str
+
+    @property
+    def matches_seed(self) -> bool:
+        """Whether the equilibrium has the seed's own fold states."""
+        return self.reached_bits == self.seed_bits
+
+
+def state_bits(model: Model, q: np.ndarray) -> tuple[int, ...]:
+    """Fold-state bits of coordinates ``q`` (free end first,
+    :func:`~biplan.analysis.states.labels.bistable_folds`): 1 where the open branch occupies more of
+    the fold's length than the closed one (SI, "Construction of a state transition diagram")."""
+    frac = np.asarray(phase_fractions(model.layout, model.params, jnp.asarray(q)))
+    index = [fold_vector_index(model, f) for f in bistable_folds(model.tube)]
+    return tuple(int(frac[i, 2] > frac[i, 0]) for i in index)
+
+
+def relax_state(
+    model: Model, label: str, settings: Enumeration | None = None, *, atol: float = 1e-12
+) -> Solution:
+    """The stable state ``label`` at zero end load, relaxed from its own seed.
+
+    The seed with the label's bits goes through the enumeration's relaxation
+    (:func:`relax_seeds`, the same compiled kernel), then Newton polishes it to ‖r‖∞ < ``atol``.
+
+    Parameters
+    ----------
+    model : Model
+        A tube with bistable folds.
+    label : str
+        Hexadecimal state label (:mod:`biplan.analysis.states.labels`), e.g. ``"1B"``.
+    settings : Enumeration, optional
+    atol : float
+        Residual tolerance of the returned equilibrium [N, mm].
+
+    Returns
+    -------
+    Solution
+        Converged, stable, with the label's bits.
+
+    Raises
+    ------
+    ConfigError
+        A tube without bistable folds, or a label that is not one of its states' labels.
+    ConvergenceError
+        The seed's relaxation failed, or reached an unstable equilibrium or other fold states.
+    """
+    settings = settings or Enumeration()
+    folds = bistable_folds(model.tube)
+    if not folds:
+        raise ConfigError("model", model.tube.name, "a tube with at least one bistable fold law")
+    bits = label_to_bits(label, len(folds))
+    target, mask = seed_targets(model, folds, np.array([bits], dtype=int))
+    z, status, _ = relax_seeds(model, target, mask, settings)
+    if int(status[0]) != Status.CONVERGED.value or not np.all(np.isfinite(z[0])):
+        raise ConvergenceError(f"state {label}: the relaxation of its seed did not converge")
+    sol = solve_equilibrium(model, replace(settings.newton, atol=atol), z[0], Load.of_force(0.0))
+    if not sol.converged:
+        raise ConvergenceError(f"state {label}: Newton from the relaxed seed: {sol.message}")
+    reached = state_bits(model, sol.q)
+    if reached != bits:
+        raise ConvergenceError(
+            f"state {label}: its seed relaxed to {bits_to_label(reached)} (not stable as {label})"
+        )
+    verdict = classify(model, sol).verdict
+    if verdict is not Verdict.STABLE:
+        raise ConvergenceError(f"state {label}: its equilibrium is {verdict.value}, not stable")
+    return sol
+
+
+def enumerate_states(
+    model: Model,
+    settings: Enumeration | None = None,
+    progress: Callable[[int, int], None] | None = None,
+    *,
+    search: Search = Search.EXHAUSTIVE,
+    sink: ChunkSink | None = None,
+    confirm: bool = False,
+    runner: Runner | None = None,
+) -> StateCatalogue:
+    """The stable states reached from fold-state seeds (SI Sec. transitions).
+
+    Parameters
+    ----------
+    model : Model
+        A tube with at least one bistable fold.
+    settings : Enumeration, optional
+    progress : callable, optional
+        Called as ``progress(done, total)`` as seeds finish.
+    search : Search
+        All 2ⁿ seeds (default), or the neighbourhood search (:mod:`biplan.analysis.states.seeding`).
+    sink : ChunkSink, optional
+        Exhaustive search: finished chunks of seeds are saved to it, and chunks it already
+        holds are loaded instead of relaxed (:class:`biplan.io.sweepstore.ChunkStore`: a run
+        that was killed resumes).
+    confirm : bool
+        Run an exhaustive search of more than :data:`~biplan.analysis.states.seeding.CONFIRM_SEEDS`
+        seeds (otherwise refused with a cost estimate, before any work).
+    runner : Runner, optional
+        Exhaustive search: where the chunks run (:mod:`biplan.analysis.scaleout`, e.g.
+        ``dask_runner()`` for a local cluster or ``dask_runner("tcp://host:8786")``);
+        default this process. The states are the same either way.
+
+    Returns
+    -------
+    StateCatalogue
+        ``seeds`` holds every seed tried, in seed order.
+    """
+    from biplan.analysis.states.catalogue import StateCatalogue
+
+    settings = settings or Enumeration()
+    if not isinstance(search, Search):
+        raise ConfigError("search", search, " or ".join(repr(s.value) for s in Search))
+    folds = bistable_folds(model.tube)
+    if not folds:
+        raise ConfigError("model", model.tube.name, "a tube with at least one bistable fold law")
+    seeding.check_size(len(folds), model.tube.n_modules, search, confirm, MAX_FOLDS)
+    start = time.perf_counter()
+    if search is Search.EXHAUSTIVE:
+        res = seeding.exhaustive(model, folds, settings, sink, progress, runner)
+    else:
+        res = seeding.neighbourhood(model, folds, settings, progress)
+    z = res["z"]
+    converged, stable = seeding.outcome_masks(res, settings.stability_tolerance)
+    nq = model.layout.n_coordinates
+    state_of = _merge(z[:, :nq], stable, settings.duplicate_tolerance)
+    unstable_of = _merge(z[:, :nq], converged & ~stable, settings.duplicate_tolerance)
+    reps = np.flatnonzero(state_of == np.arange(len(z)))
+    names = _names([tuple(int(b) for b in res["reached"][i]) for i in reps])
+    name_of = dict(zip(reps.tolist(), names, strict=True))
+    seeds_of: dict[int, list[str]] = {int(r): [] for r in reps}
+    outcomes = []
+    all_seed_bits = seeding.seed_bits(res["seed"], len(folds))
+    for i in range(len(z)):
+        seed_bits = tuple(int(b) for b in all_seed_bits[i])
+        eig = float(res["min_eigenvalue"][i])
+        common: dict[str, Any] = {
+            "seed": bits_to_label(seed_bits),
+            "seed_bits": seed_bits,
+            "reached_bits": tuple(int(b) for b in res["reached"][i]),
+            "min_eigenvalue": eig,
+            "residual": float(res["residual"][i]),
+        }
+        if stable[i]:
+            seeds_of[int(state_of[i])].append(common["seed"])
+            outcome = SeedOutcome(
+                **common, outcome="stable", state=name_of[int(state_of[i])], message=""
+            )
+        elif converged[i]:
+            message = f"equilibrium with λ_min = {eig:.3g} N/mm ≤ {settings.stability_tolerance:g}"
+            outcome = SeedOutcome(**common, outcome="unstable", state=None, message=message)
+        else:
+            code = int(res["status"][i])
+            message = Status(code).message if code in (0, 1, 2, 3) else ""
+            outcome = SeedOutcome(**common, outcome="failed", state=None, message=message)
+        outcomes.append(outcome)
+    built = tuple(
+        StableState(
+            name=name_of[int(i)],
+            label=bits_to_label(tuple(int(b) for b in res["reached"][i])),
+            bits=tuple(int(b) for b in res["reached"][i]),
+            q=z[i, :nq].copy(),
+            z=z[i].copy(),
+            energy=float(res["energy"][i]),
+            u_z=float(res["u_z"][i]),
+            u_r=float(res["u_r"][i]),
+            theta=float(res["theta"][i]),
+            min_eigenvalue=float(res["min_eigenvalue"][i]),
+            phase_fraction=res["phase_fraction"][i].copy(),
+            seeds=tuple(seeds_of[int(i)]),
+        )
+        for i in reps
+    )
+    unstable = np.flatnonzero(unstable_of == np.arange(len(z)))
+    return StateCatalogue(
+        model=model,
+        folds=folds,
+        states=built,
+        seeds=tuple(outcomes),
+        unstable_z=z[unstable].reshape(-1, z.shape[1]),
+        unstable_eigenvalues=res["min_eigenvalue"][unstable].astype(float),
+        settings=settings,
+        elapsed=time.perf_counter() - start,
+    )
+
+
+def _merge(q: np.ndarray, keep: np.ndarray, tolerance: float) -> np.ndarray:
+    """For each row i of ``q`` with ``keep[i]``: the first kept row r ≤ i, in row order, that
+    is a representative and has max |q_r − q_i| < tolerance (i itself when none); −1 for rows
+    not kept. Candidates come from a k-d tree in the max norm, so the cost is O(k log k)."""
+    from scipy.spatial import cKDTree
+
+    out = np.full(len(q), -1, dtype=np.int64)
+    rows = np.flatnonzero(keep)
+    if rows.size == 0:
+        return out
+    tree = cKDTree(q[rows])
+    near = tree.query_ball_point(q[rows], r=tolerance, p=np.inf)
+    is_rep = np.zeros(rows.size, dtype=bool)
+    for a, candidates in enumerate(near):
+        hits = [
+            b
+            for b in candidates
+            if b < a and is_rep[b] and np.max(np.abs(q[rows[b]] - q[rows[a]])) < tolerance
+        ]
+        if hits:
+            out[rows[a]] = out[rows[min(hits)]]
+        else:
+            is_rep[a] = True
+            out[rows[a]] = rows[a]
+    return out
+
+
+def _names(bits: list[tuple[int, ...]]) -> list[str]:
+    """Unique state names: the label, suffixed ``.2``, ``.3``… for repeated bits."""
+    seen: dict[str, int] = {}
+    names = []
+    for b in bits:
+        label = bits_to_label(b)
+        seen[label] = seen.get(label, 0) + 1
+        names.append(label if seen[label] == 1 else f"{label}.{seen[label]}")
+    return names

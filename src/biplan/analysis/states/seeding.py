@@ -1,0 +1,288 @@
+"""Seeds of a state search, their relaxation, and the two searches (MODEL §15).
+
+A seed is a bit vector over the bistable folds (free end first,
+:func:`~biplan.analysis.states.labels.bistable_folds`): 0 seeds a fold at its closed well, 1 at its
+open well. Seed i has the bits of i written in binary with the first fold as the most
+significant bit (the order of ``itertools.product((0, 1), repeat=n)``).
+
+* :attr:`Search.EXHAUSTIVE` relaxes all 2ⁿ seeds, in chunks of ``Enumeration.chunk``, in
+  this process or on a runner of :mod:`biplan.analysis.scaleout` (a Dask cluster: the chunks
+  of a worker that dies are run again elsewhere); each finished chunk can go to a
+  :class:`~biplan.analysis.maps.sweeps.ChunkSink` (the sweep store), so a killed run resumes at the
+  first unfinished chunk.
+* :attr:`Search.NEIGHBOURHOOD` starts from the all-closed seed and, round after round,
+  relaxes the Hamming-1 neighbours (one fold flipped) of the fold states reached so far that
+  have not been tried, until a round finds nothing new. It finds every state connected to
+  the all-closed one by single-fold changes — the connected component of the transition graph
+  — at a cost that grows with the number of states reached, not with 2ⁿ.
+
+Every seed goes through the same compiled relaxation
+(:func:`biplan.solvers._relaxkernel.relax_pool`) and the same observation, so a seed's result
+does not depend on the search that tried it.
+"""
+
+from __future__ import annotations
+
+import enum
+import functools
+from collections.abc import Callable
+from typing import TYPE_CHECKING, Any
+
+import numpy as np
+
+from biplan._compile.setup import jnp
+from biplan._errors import ConfigError
+from biplan.geometry import FoldRef
+from biplan.model.assembly import Load, Model
+from biplan.model.tube import Tube
+from biplan.solvers._relaxkernel import relax_pool
+from biplan.solvers.core import Status
+from biplan.solvers.observe import observe_batch
+
+if TYPE_CHECKING:
+    from biplan.analysis.maps.sweeps import ChunkSink
+    from biplan.analysis.states.search import Enumeration
+
+__all__ = [
+    "CONFIRM_SEEDS",
+    "SECONDS_PER_SEED",
+    "Search",
+    "cost_estimate",
+    "evaluate",
+    "evaluate_chunk",
+    "exhaustive",
+    "fold_vector_index",
+    "neighbourhood",
+    "outcome_masks",
+    "relax_seeds",
+    "seed_bits",
+    "seed_targets",
+]
+
+#: Seeds above which a search runs only when confirmed (``confirm=True``, ``--yes``).
+CONFIRM_SEEDS = 2**12
+#: Wall time per seed [s] is about this × N² for N modules (relaxation and observation, fully
+#: bistable tubes, warm kernels, one process on the 2-core development machine: 3.9 ms at
+#: N = 4, 8.9 ms at N = 6; docs/performance.md).
+SECONDS_PER_SEED = 2.5e-4
+
+Progress = Callable[[int, int], None]
+
+
+class Search(enum.Enum):
+    """Which seeds a state enumeration relaxes (module docstring)."""
+
+    EXHAUSTIVE = "exhaustive"
+    NEIGHBOURHOOD = "neighbourhood"
+
+
+def fold_vector_index(model: Model, fold: FoldRef) -> int:
+    """Index of a fold in the (helical, then circular) fold vectors of the kernels."""
+    return fold.index if fold.set == "helical" else model.tube.n_modules + fold.index
+
+
+def seed_bits(indices: np.ndarray, n_folds: int) -> np.ndarray:
+    """Bits (k, n_folds) of seeds ``indices`` (first fold most significant)."""
+    shifts = np.arange(n_folds - 1, -1, -1, dtype=np.int64)
+    return ((np.asarray(indices, dtype=np.int64)[:, None] >> shifts) & 1).astype(int)
+
+
+def _seed_index(bits: np.ndarray) -> np.ndarray:
+    n = bits.shape[-1]
+    return (np.asarray(bits, dtype=np.int64) << np.arange(n - 1, -1, -1, dtype=np.int64)).sum(-1)
+
+
+def outcome_masks(res: dict[str, np.ndarray], tolerance: float) -> tuple[np.ndarray, np.ndarray]:
+    """(converged, stable) per seed of :func:`evaluate`'s result: a finite equilibrium whose
+    solve converged, and among those the ones with λ_min > ``tolerance`` [N/mm]."""
+    converged = (res["status"] == Status.CONVERGED.value) & np.isfinite(res["residual"])
+    converged &= np.all(np.isfinite(res["z"]), axis=1)
+    return converged, converged & (res["min_eigenvalue"] > tolerance)
+
+
+def cost_estimate(n_seeds: int, n_modules: int) -> str:
+    """A one-line estimate of the wall time of relaxing ``n_seeds`` seeds of an
+    ``n_modules``-module tube in one process (:data:`SECONDS_PER_SEED`)."""
+    seconds = n_seeds * SECONDS_PER_SEED * n_modules**2
+    if seconds < 120:
+        return f"about {seconds:.0f} s"
+    if seconds < 7200:
+        return f"about {seconds / 60:.0f} min"
+    return f"about {seconds / 3600:.1f} h"
+
+
+def seed_targets(
+    model: Model, folds: tuple[FoldRef, ...], bits: np.ndarray
+) -> tuple[np.ndarray, np.ndarray]:
+    """(target openings, mask), (k, N + Nc) each, of seeds with ``bits`` (k, n_folds)."""
+    tube = model.tube
+    laws = list(tube.helical_laws) + list(tube.circular_laws)
+    target = np.zeros((len(bits), len(laws)))
+    mask = np.zeros(len(laws))
+    for bit, fold in enumerate(folds):
+        i = fold_vector_index(model, fold)
+        wells = laws[i].wells()
+        target[:, i] = np.where(bits[:, bit] == 1, wells[-1], wells[0])
+        mask[i] = 1.0
+    return target, np.broadcast_to(mask, target.shape).copy()
+
+
+def relax_seeds(
+    model: Model,
+    target: np.ndarray,
+    mask: np.ndarray,
+    settings: Enumeration,
+    progress: Progress | None = None,
+) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Relaxation of seeds (rows of ``target``/``mask``): (z, status, residual).
+
+    Seeds go through the compiled pool (:func:`biplan.solvers._relaxkernel.relax_pool`,
+    ``settings.lanes`` lanes) in blocks of ``settings.chunk`` (the last one padded; padding
+    costs nothing), so every block reuses one compilation; ``progress(done, total)`` is called
+    after each block.
+    """
+    lanes = min(settings.lanes, settings.chunk)
+    fn = relax_pool.compiled(model.layout, lanes)
+    stiffness = jnp.asarray(float(settings.penalty_stiffness))
+    iterations = jnp.asarray(settings.max_iterations)
+    newton = settings.newton.settings()
+    k, chunk = len(target), settings.chunk
+    zs, status, residual = [], [], []
+    for lo in range(0, k, chunk):
+        hi = min(lo + chunk, k)
+        pad = chunk - (hi - lo)
+        t = np.concatenate([target[lo:hi], np.repeat(target[hi - 1 : hi], pad, axis=0)])
+        m = np.concatenate([mask[lo:hi], np.repeat(mask[hi - 1 : hi], pad, axis=0)])
+        out = fn(
+            model.params,
+            jnp.asarray(t),
+            jnp.asarray(m),
+            jnp.asarray(hi - lo),
+            stiffness,
+            iterations,
+            newton,
+        )
+        zs.append(np.asarray(out.z)[: hi - lo])
+        status.append(np.asarray(out.status)[: hi - lo])
+        residual.append(np.asarray(out.residual)[: hi - lo])
+        if progress is not None:
+            progress(hi, k)
+    return np.concatenate(zs), np.concatenate(status), np.concatenate(residual)
+
+
+def evaluate(
+    model: Model,
+    folds: tuple[FoldRef, ...],
+    indices: np.ndarray,
+    settings: Enumeration,
+    progress: Progress | None = None,
+) -> dict[str, np.ndarray]:
+    """Relax and observe seeds ``indices``: per seed (leading axis) ``seed``, ``z``,
+    ``status``, ``residual`` [N, mm], ``reached`` (fold bits of the equilibrium),
+    ``min_eigenvalue`` [N/mm], ``energy`` [N·mm], ``u_z``, ``u_r`` [mm], ``theta`` [rad],
+    ``phase_fraction`` (N + Nc, 3)."""
+    indices = np.asarray(indices, dtype=np.int64)
+    target, mask = seed_targets(model, folds, seed_bits(indices, len(folds)))
+    z, status, residual = relax_seeds(model, target, mask, settings, progress)
+    zeros = np.zeros(len(z))
+    obs = observe_batch(model.layout, model.params, z, Load(zeros, zeros, zeros))
+    frac = obs.phase_fraction[:, [fold_vector_index(model, f) for f in folds], :]
+    return {
+        "seed": indices,
+        "z": z,
+        "status": np.asarray(status, dtype=np.int64),
+        "residual": np.asarray(residual, dtype=float),
+        "reached": (frac[:, :, 2] > frac[:, :, 0]).astype(np.int64),
+        "min_eigenvalue": np.asarray(obs.min_eigenvalue, dtype=float),
+        "energy": np.asarray(obs.energy, dtype=float),
+        "u_z": np.asarray(obs.u_z, dtype=float),
+        "u_r": np.asarray(obs.u_r, dtype=float),
+        "theta": np.asarray(obs.theta, dtype=float),
+        "phase_fraction": np.asarray(obs.phase_fraction, dtype=float),
+    }
+
+
+def _concatenate(parts: list[dict[str, np.ndarray]]) -> dict[str, np.ndarray]:
+    return {k: np.concatenate([p[k] for p in parts]) for k in parts[0]}
+
+
+@functools.lru_cache(maxsize=4)
+def _model(tube: Tube) -> Model:
+    return Model(tube)
+
+
+def evaluate_chunk(tube: Tube, settings: Enumeration, indices: np.ndarray) -> dict[str, np.ndarray]:
+    """:func:`evaluate` of seeds ``indices`` of ``tube``'s bistable folds: what a worker runs
+    (picklable arguments; the model is built once per process)."""
+    from biplan.analysis.states.labels import bistable_folds
+
+    model = _model(tube)
+    return evaluate(model, bistable_folds(tube), indices, settings)
+
+
+def exhaustive(
+    model: Model,
+    folds: tuple[FoldRef, ...],
+    settings: Enumeration,
+    sink: ChunkSink | None = None,
+    progress: Progress | None = None,
+    runner: Any = None,
+) -> dict[str, np.ndarray]:
+    """Every seed, chunk by chunk (:func:`evaluate`): chunks already in ``sink`` are loaded,
+    the others computed by ``runner`` (:mod:`biplan.analysis.scaleout`; default this process)
+    and saved to ``sink`` as they finish; the result is in seed order either way."""
+    from biplan.analysis.maps.sweeps import run_chunks
+
+    total = 2 ** len(folds)
+    chunks = [
+        np.arange(lo, min(lo + settings.chunk, total)) for lo in range(0, total, settings.chunk)
+    ]
+    if runner is None:
+        task: Any = functools.partial(evaluate, model, folds, settings=settings)
+    else:
+        task = functools.partial(evaluate_chunk, model.tube, settings)
+    results = run_chunks(task, chunks, runner=runner, sink=sink, progress=progress)
+    return _concatenate([results[c] for c in range(len(chunks))])
+
+
+def neighbourhood(
+    model: Model,
+    folds: tuple[FoldRef, ...],
+    settings: Enumeration,
+    progress: Progress | None = None,
+) -> dict[str, np.ndarray]:
+    """Seeds reached from the all-closed seed through Hamming-1 neighbours of the fold states
+    of stable equilibria (module docstring); results in seed order. ``progress(done, total)``
+    counts seeds tried against seeds known so far."""
+    n = len(folds)
+    flips = np.eye(n, dtype=np.int64)
+    tried: set[int] = set()
+    frontier = np.array([0], dtype=np.int64)
+    parts = []
+    while frontier.size:
+        part = evaluate(model, folds, frontier, settings)
+        parts.append(part)
+        tried.update(int(i) for i in frontier)
+        _, stable = outcome_masks(part, settings.stability_tolerance)
+        reached = np.unique(part["reached"][stable], axis=0)
+        neighbours = _seed_index((reached[:, None, :] ^ flips[None]).reshape(-1, n))
+        frontier = np.array(sorted(set(neighbours.tolist()) - tried), dtype=np.int64)
+        if progress is not None:
+            progress(len(tried), len(tried) + frontier.size)
+    out = _concatenate(parts)
+    order = np.argsort(out["seed"], kind="stable")
+    return {k: v[order] for k, v in out.items()}
+
+
+def check_size(n_folds: int, n_modules: int, search: Search, confirm: bool, max_folds: int) -> None:
+    """Refuse, before any work, a search too large to run unasked (with its cost estimate)."""
+    if n_folds > max_folds:
+        raise ConfigError("model", f"{n_folds} bistable folds", f"at most {max_folds}")
+    seeds = 2**n_folds
+    if search is Search.EXHAUSTIVE and seeds > CONFIRM_SEEDS and not confirm:
+        raise ConfigError(
+            "search",
+            f"exhaustive over {n_folds} bistable folds ({seeds:,} seeds)",
+            f"at most {CONFIRM_SEEDS:,} seeds unless confirmed (confirm=True, --yes): "
+            f"{cost_estimate(seeds, n_modules)} in one process; or the neighbourhood search",
+        )

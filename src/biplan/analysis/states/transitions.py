@@ -1,0 +1,170 @@
+"""State-transition graph and pathways (SI "state transition diagram").
+
+Stable states are nodes; two states are joined by an undirected edge when their fold-state bits
+differ in exactly one fold (Hamming distance one). A pathway between two states is a shortest
+path of the graph — by number of fold switches, or, when the edges carry energy barriers
+(:func:`biplan.analysis.states.barriers.annotate_barriers`), by the total barrier climbed in the
+direction of travel.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable, Iterable
+from pathlib import Path as FilePath
+from typing import Any
+
+import networkx as nx
+
+from biplan._errors import ConfigError
+from biplan.analysis.states.barriers import NudgedElasticBand, edge_barriers
+from biplan.analysis.states.catalogue import StateCatalogue
+from biplan.analysis.states.departure import departure_force
+from biplan.analysis.states.labels import hamming
+from biplan.model.assembly import Model
+
+__all__ = [
+    "annotate_barriers",
+    "barrier_weight",
+    "pathway",
+    "transition_graph",
+    "write_graphml",
+]
+
+
+def transition_graph(catalogue: StateCatalogue) -> nx.Graph:
+    """Graph of the stable states with Hamming-1 edges.
+
+    Node keys are the state names; node attributes: label, bits (string), energy [N·mm], u_z,
+    u_r [mm], theta [rad], Theta, n_open_helical, n_open_circular. Edge attribute ``fold``: the
+    bit (0 = free end) in which the two states differ, ``fold_set``/``fold_index`` of it (the
+    index from 0 at the base, :class:`~biplan.geometry.FoldRef`) and ``fold_name``, its name in
+    the result files and figures (``"helical 2"``, ``"circular 1|2"``: modules from 1).
+    """
+    g = nx.Graph()
+    for row, state in zip(catalogue.rows(), catalogue.states, strict=True):
+        attrs = {k: v for k, v in row.items() if k not in ("name", "seeds")}
+        g.add_node(state.name, **attrs)
+    states = catalogue.states
+    for i, a in enumerate(states):
+        for b in states[i + 1 :]:
+            if hamming(a.bits, b.bits) == 1:
+                bit = next(k for k, (x, y) in enumerate(zip(a.bits, b.bits, strict=True)) if x != y)
+                fold = catalogue.folds[bit]
+                name = catalogue.model.layout.fold_name(fold)
+                g.add_edge(
+                    a.name, b.name, fold=bit, fold_set=fold.set, fold_index=fold.index,
+                    fold_name=name,
+                )  # fmt: skip
+    return g
+
+
+def barrier_weight(u: str, v: str, data: dict[str, Any], graph: nx.Graph) -> float:
+    """Barrier [N·mm] climbed going from ``u`` to ``v``: E_saddle − E_u (an edge attribute)."""
+    if "saddle_energy" not in data:
+        raise ConfigError(
+            "weight", "barrier", "a graph annotated with barriers (annotate_barriers)"
+        )
+    return max(float(data["saddle_energy"]) - float(graph.nodes[u]["energy"]), 0.0)
+
+
+def _weight(graph: nx.Graph, weight: str | None) -> Callable[[str, str, dict], float] | None:
+    if weight is None:
+        return None
+    if weight == "barrier":
+        return lambda u, v, d: barrier_weight(u, v, d, graph)
+    raise ConfigError("weight", weight, "None (fold switches) or 'barrier'")
+
+
+def pathway(
+    graph: nx.Graph,
+    start: str,
+    target: str,
+    all_paths: bool = False,
+    weight: str | None = None,
+) -> list[str] | list[list[str]]:
+    """Shortest transition pathway between two states.
+
+    Parameters
+    ----------
+    graph : networkx.Graph
+        From :func:`transition_graph`.
+    start, target : str
+        State names (hex labels, e.g. ``"2A"``).
+    all_paths : bool
+        Return every shortest path (a list of paths) instead of one.
+    weight : {None, "barrier"}
+        ``None``: fewest fold switches; ``"barrier"``: least total barrier climbed in the
+        direction of travel (needs barrier attributes on the edges).
+
+    Raises
+    ------
+    ConfigError
+        Unknown state, or no pathway between the two (different connected components).
+    """
+    for name, value in (("start", start), ("target", target)):
+        if value not in graph:
+            raise ConfigError(name, value, f"a stable state: {', '.join(sorted(graph.nodes))}")
+    w = _weight(graph, weight)
+    try:
+        if all_paths:
+            return [list(p) for p in nx.all_shortest_paths(graph, start, target, weight=w)]
+        return list(nx.shortest_path(graph, start, target, weight=w))
+    except nx.NetworkXNoPath:
+        raise ConfigError(
+            "target", target, f"a state connected to {start} by single-fold transitions"
+        ) from None
+
+
+def annotate_barriers(
+    graph: nx.Graph,
+    model: Model,
+    catalogue: StateCatalogue,
+    edges: Iterable[tuple[str, str]] | None = None,
+    neb: NudgedElasticBand | None = None,
+    departure: bool = False,
+) -> nx.Graph:
+    """Compute the minimum-energy path of edges and store it on them (in place).
+
+    Edge attributes: ``saddle_energy`` [N·mm], ``barrier_forward``/``barrier_backward``
+    [N·mm] from the edge's first/second node (``forward_from`` names the first),
+    ``mep_status``, ``n_negative`` (negative reduced-Hessian eigenvalues at the saddle) and,
+    with ``departure=True``, ``departure_force`` [N] (the end force at which ``forward_from``
+    loses stability on a force ramp, NaN when it does not) and ``departure_lands``.
+
+    Parameters
+    ----------
+    edges : iterable of (name, name), optional
+        Default: every edge of the graph.
+    """
+    todo = list(graph.edges) if edges is None else [tuple(e) for e in edges]
+    pairs = [(catalogue.state(u).z, catalogue.state(v).z) for u, v in todo]
+    for (u, v), mep in zip(todo, edge_barriers(model, pairs, neb), strict=True):
+        data = graph.edges[u, v]
+        data.update(
+            forward_from=u,
+            saddle_energy=float(mep.saddle_energy),
+            barrier_forward=float(mep.barrier_forward),
+            barrier_backward=float(mep.barrier_backward),
+            mep_status=mep.status.name,
+            n_negative=int(mep.n_negative),
+        )
+        if departure:
+            dep = departure_force(model, catalogue.state(u).z, catalogue.state(v).z)
+            data["departure_force"] = float(dep.force)
+            data["departure_lands"] = bool(dep.lands_in_target)
+    return graph
+
+
+def write_graphml(graph: nx.Graph, path: str | FilePath) -> FilePath:
+    """Write the graph to GraphML (attributes that GraphML cannot hold are stringified)."""
+    out = FilePath(path)
+    out.parent.mkdir(parents=True, exist_ok=True)
+    g = graph.copy()
+    for _, data in list(g.nodes(data=True)) + [(None, d) for *_, d in g.edges(data=True)]:
+        for key, value in list(data.items()):
+            if value is None:
+                del data[key]
+            elif not isinstance(value, str | int | float | bool):
+                data[key] = str(value)
+    nx.write_graphml(g, out)
+    return out

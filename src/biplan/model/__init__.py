@@ -1,0 +1,10 @@
+"""The model: the only package that knows both the laws and the geometry.
+
+- :mod:`~biplan.model.tube`: a tube as a design (geometry, layout and fold laws).
+- :mod:`~biplan.model.elements`: the chain's local element terms (energy, guides, gaps).
+- :mod:`~biplan.model.assembly`: the Lagrangian, the KKT residual and Jacobian, :class:`Model`.
+- :mod:`~biplan.model.inertia`: the mass matrix of the shell.
+- :mod:`~biplan.model.oracle`: an independent dense implementation, for the tests.
+
+The package imports nothing itself, so that :mod:`~biplan.model.tube` loads without JAX.
+"""
