@@ -33,8 +33,9 @@ import numpy as np
 import biplan
 from biplan._compile.setup import jax, jnp
 from biplan.analysis.states import seeding
+from biplan.analysis.states.catalogue import Enumeration
 from biplan.analysis.states.labels import bistable_folds
-from biplan.analysis.states.search import Enumeration, Search, enumerate_states
+from biplan.analysis.states.search import Search, enumerate_states
 from biplan.solvers._relaxkernel import relax_seed
 
 LOCK_STEP_CHUNK = 16

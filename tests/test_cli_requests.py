@@ -443,9 +443,14 @@ def _catalogue(
 ) -> Path:
     """A states.nc of the tube of ``config`` (``edit`` replaces a string of its text) written
     as ``biplan states`` writes it, with made-up states ``names`` (no solve)."""
-    from biplan.analysis.states.catalogue import StateCatalogue
+    from biplan.analysis.states.catalogue import (
+        Enumeration,
+        Outcome,
+        SeedOutcome,
+        StableState,
+        StateCatalogue,
+    )
     from biplan.analysis.states.labels import bistable_folds, label_to_bits
-    from biplan.analysis.states.search import Enumeration, SeedOutcome, StableState
     from biplan.io.config import dump_config, load_config_text
 
     text = config.read_text()
@@ -461,7 +466,7 @@ def _catalogue(
         for k, n in enumerate(names)
     )  # fmt: skip
     seeds = tuple(
-        SeedOutcome(seed=s.name, seed_bits=s.bits, reached_bits=s.bits, outcome="stable",
+        SeedOutcome(seed=s.name, seed_bits=s.bits, reached_bits=s.bits, outcome=Outcome.STABLE,
                     state=s.name, min_eigenvalue=s.min_eigenvalue, residual=0.0, message="")
         for s in states
     )  # fmt: skip

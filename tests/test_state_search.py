@@ -11,8 +11,9 @@ import pytest
 import biplan
 from biplan._compile.setup import jax, jnp
 from biplan.analysis.states import seeding
+from biplan.analysis.states.catalogue import Enumeration
 from biplan.analysis.states.labels import bistable_folds
-from biplan.analysis.states.search import Enumeration, Search, enumerate_states
+from biplan.analysis.states.search import Search, enumerate_states
 from biplan.io.sweepstore import ChunkStore
 from biplan.model.assembly import kernels
 from biplan.solvers._relaxkernel import relax_pool, relax_seed

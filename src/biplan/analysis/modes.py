@@ -16,11 +16,17 @@ import scipy.linalg
 
 from biplan._errors import ConfigError
 from biplan.analysis.stability import reduced_hessian
-from biplan.model.assembly import Model
+from biplan.model.assembly import Load, Model
 from biplan.solvers.dynamics import mass_matrix_at
-from biplan.solvers.newton import Solution
+from biplan.solvers.newton import Solution, solve_equilibrium
 
-__all__ = ["Modes", "natural_modes", "rayleigh_for_damping_ratio"]
+__all__ = [
+    "Modes",
+    "check_damping_ratio",
+    "natural_modes",
+    "rayleigh_at",
+    "rayleigh_for_damping_ratio",
+]
 
 
 @dataclass(frozen=True)
@@ -69,8 +75,45 @@ def natural_modes(model: Model, solution: Solution) -> Modes:
     return Modes(np.sqrt(w2), basis @ vec)
 
 
+def check_damping_ratio(ratio: float) -> None:
+    """Refuse a damping ratio ζ outside (0, 1) (:class:`ConfigError` naming ``damping_ratio``)."""
+    if not 0 < ratio < 1:
+        raise ConfigError("damping_ratio", ratio, "a damping ratio in (0, 1)")
+
+
 def rayleigh_for_damping_ratio(modes: Modes, ratio: float) -> float:
     """α_R [1/s] of D = α_R M that damps the first mode with ratio ζ (ζ_1 = α_R / 2ω_1)."""
-    if not 0 < ratio < 1:
-        raise ConfigError("ratio", ratio, "a damping ratio in (0, 1)")
+    check_damping_ratio(ratio)
+    if modes.angular_frequency.size == 0:
+        raise ConfigError("modes", "none (every contact locked)", "at least one free mode")
     return 2.0 * ratio * float(modes.angular_frequency[0])
+
+
+def rayleigh_at(model: Model, start: Solution, probe: Load, damping_ratio: float) -> float:
+    """α_R [1/s] that gives the first natural mode of the equilibrium under ``probe`` the
+    damping ratio ζ.
+
+    Every dynamic workflow (a force-controlled test's ramp after a snap, ``biplan respond
+    --dynamic``, the demo's ramp) probes at half its largest load: on the start's branch,
+    below the limit point, where a mode is free (in the unloaded tube every contact touches
+    and locks every mode).
+
+    Parameters
+    ----------
+    model : Model
+    start : Solution
+        Start of the Newton solve of the probe state.
+    probe : Load
+        The load of the probe state.
+    damping_ratio : float
+        ζ in (0, 1).
+
+    Raises
+    ------
+    ConfigError
+        If ζ is outside (0, 1), or the probe state is not converged, not stable or has no
+        free mode.
+    """
+    check_damping_ratio(damping_ratio)
+    state = solve_equilibrium(model, None, start, probe)
+    return rayleigh_for_damping_ratio(natural_modes(model, state), damping_ratio)

@@ -38,13 +38,12 @@ def run_response(
     ``peak``: the located phase-1 peak (:func:`~biplan.analysis.response.loadcontrol.first_snap`),
     reported instead of the largest force recorded on the path."""
     import biplan
-    from biplan.analysis.modes import natural_modes, rayleigh_for_damping_ratio
+    from biplan.analysis.modes import rayleigh_at
     from biplan.analysis.response.summary import summarize
     from biplan.io.results import dataset, save_csv, save_netcdf
 
     ref = biplan.relaxed_reference(model)
-    probe = biplan.solve_equilibrium(model, None, ref, biplan.Load.of_force(0.8))
-    alpha = rayleigh_for_damping_ratio(natural_modes(model, probe), DAMPING_RATIO)
+    alpha = rayleigh_at(model, ref, biplan.Load.of_force(0.8), DAMPING_RATIO)
     ramp = biplan.integrate(
         model, biplan.GeneralizedAlpha(time_step=0.01, rayleigh=alpha), ref, t_end=2.0
     )
@@ -86,11 +85,7 @@ def run_response(
 
 
 def _figure(path: object, ramp: object, file: Path) -> Path:
-    import matplotlib
-
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
-
+    from biplan.plot.files import figure_file
     from biplan.plot.response import (
         COLUMN_FIGSIZE,
         SNAP_COLOR,
@@ -98,8 +93,7 @@ def _figure(path: object, ramp: object, file: Path) -> Path:
         legend_above,
     )
 
-    fig, ax = plt.subplots(figsize=COLUMN_FIGSIZE, layout="constrained")
-    try:
+    with figure_file(file, figsize=COLUMN_FIGSIZE) as (_, ax):
         force_displacement(path, ax=ax, label="equilibrium path (displacement control)")
         ax.plot(
             ramp.displacement,  # type: ignore[attr-defined]
@@ -111,7 +105,4 @@ def _figure(path: object, ramp: object, file: Path) -> Path:
         )
         ax.set_xlabel(r"load-point displacement $z_p$ [mm]")
         legend_above(ax, fontsize=6, ncol=1)
-        fig.savefig(file, dpi=300)
-    finally:
-        plt.close(fig)
     return file

@@ -39,7 +39,6 @@ if TYPE_CHECKING:
 
 __all__ = ["app", "linear", "trilinear", "write_table"]
 
-DPI = 300
 
 app = typer.Typer(
     help="Calibrate fold laws from measured Circular Folded Tube curves (CSV, one per specimen).",
@@ -142,20 +141,12 @@ def _summary(result: Calibration) -> Table:
 
 
 def _figure(result: Calibration, file: Path) -> None:
-    import matplotlib
-
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
-
     from biplan.plot import calibration_band
+    from biplan.plot.files import figure_file
     from biplan.plot.response import COLUMN_FIGSIZE
 
-    fig, ax = plt.subplots(figsize=COLUMN_FIGSIZE, layout="constrained")
-    try:
+    with figure_file(file, figsize=COLUMN_FIGSIZE) as (_, ax):
         calibration_band(result, ax=ax)
-        fig.savefig(file, dpi=DPI)
-    finally:
-        plt.close(fig)
 
 
 def _format_changes(*values: object) -> dict[str, object]:

@@ -433,12 +433,8 @@ def plot(
 ) -> None:
     """Figures of a finished map: u_z.png and u_r.png (design), force.png (instability) or
     stability.png."""
-    import matplotlib
-
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
-
     from biplan.io.sweepstore import load_map
+    from biplan.plot.files import figure_file
     from biplan.plot.maps import design_map, stability_map
     from biplan.plot.response import COLUMN_FIGSIZE
 
@@ -461,10 +457,6 @@ def plot(
         for var in ("u_z", "u_r"):
             jobs.append((var, lambda ax, v=var: design_map(ds, v, ax=ax)))
     for name, draw in jobs:
-        fig, ax = plt.subplots(figsize=COLUMN_FIGSIZE, layout="constrained")
-        try:
+        with figure_file(folder / f"{name}.png", figsize=COLUMN_FIGSIZE) as (_, ax):
             draw(ax)
-            fig.savefig(folder / f"{name}.png", dpi=300)
-        finally:
-            plt.close(fig)
     Console(highlight=False).print("wrote " + ", ".join(str(folder / f"{n}.png") for n, _ in jobs))

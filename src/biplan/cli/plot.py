@@ -49,9 +49,6 @@ if TYPE_CHECKING:
 
 __all__ = ["Kind", "kinds_for", "plot", "suffixes"]
 
-#: Resolution of static figures [dots per inch].
-DPI = 300
-
 
 class Kind(enum.StrEnum):
     """What ``biplan plot`` draws."""
@@ -218,11 +215,9 @@ def plot(
     azim: Annotated[float, typer.Option("--azim", help="3D view azimuth in degrees.")] = -60.0,
 ) -> None:
     """Draw a result file: response, development, tube, animation, gallery, diagnostics."""
-    import matplotlib
+    from biplan.plot.files import pyplot
 
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
-
+    pyplot()  # every figure of this command goes to a file
     output_file(out, suffixes=suffixes(kind))
     view = {"elev": check_finite("--elev", elev), "azim": check_finite("--azim", azim)}
     check_finite("--fps", fps)
@@ -254,11 +249,9 @@ def plot(
             _state(dataset, step)
             export_result(dataset, _model(dataset), out, stride=stride, index=step)
         else:
-            fig = _figure(dataset, kind, step, color_by.value, guides, view)
-            try:
-                fig.savefig(out, dpi=dpi or DPI)
-            finally:
-                plt.close(fig)
+            from biplan.plot.files import DPI, save
+
+            save(_figure(dataset, kind, step, color_by.value, guides, view), out, dpi=dpi or DPI)
     except OSError as err:
         raise typer.BadParameter(f"cannot write {out}: {err}", param_hint="--out") from None
     Console(highlight=False).print(f"wrote {escape(str(out))}")

@@ -398,7 +398,7 @@ def _dynamic(
     damping_ratio: float,
 ) -> Trajectory:
     import biplan
-    from biplan.analysis.modes import natural_modes, rayleigh_for_damping_ratio
+    from biplan.analysis.modes import rayleigh_at
     from biplan.solvers import BackwardEuler, ControlKind
 
     r = (DEFAULT_RATE[kind] if rate is None else rate) * scale
@@ -409,13 +409,8 @@ def _dynamic(
     rayleigh = 0.0
     if damping_ratio > 0:
         ref = biplan.relaxed_reference(model)  # type: ignore[arg-type]
-        probe = biplan.solve_equilibrium(
-            model,  # type: ignore[arg-type]
-            None,
-            ref,
-            biplan.Control(ControlKind(kind), 0.5 * top).load(model, 0.5 * top),  # type: ignore[arg-type]
-        )
-        rayleigh = rayleigh_for_damping_ratio(natural_modes(model, probe), damping_ratio)  # type: ignore[arg-type]
+        probe = biplan.Control(ControlKind(kind), 0.5 * top).load(model, 0.5 * top)  # type: ignore[arg-type]
+        rayleigh = rayleigh_at(model, ref, probe, damping_ratio)  # type: ignore[arg-type]
     scheme = BackwardEuler(time_step=time_step, rayleigh=rayleigh)
     return biplan.integrate(model, scheme, t_end=times[-1], load=history)  # type: ignore[arg-type]
 
@@ -425,11 +420,7 @@ def _figure(result: object, file: Path) -> None:
     z_p against time in a second panel."""
     import types
 
-    import matplotlib
-
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
-
+    from biplan.plot.files import figure_file
     from biplan.plot.response import COLUMN_FIGSIZE, FONT_SIZE, LINE_COLOR, force_displacement
     from biplan.solvers.results import display_units
 
@@ -447,20 +438,15 @@ def _figure(result: object, file: Path) -> None:
         )
     time = getattr(result, "time", None)
     width = COLUMN_FIGSIZE[0] * (2.0 if time is not None else 1.0)
-    fig, axes = plt.subplots(
-        1, 2 if time is not None else 1, figsize=(width, COLUMN_FIGSIZE[1]), layout="constrained"
-    )
-    ax = axes[0] if time is not None else axes
-    try:
+    panels = 2 if time is not None else 1
+    with figure_file(file, ncols=panels, figsize=(width, COLUMN_FIGSIZE[1])) as (_, axes):
+        ax = axes[0] if time is not None else axes
         force_displacement(shown, ax=ax)
         ax.set_xlabel(r"load-point displacement $z_p$ [mm]")
         if pressure:
             ax.set_ylabel(r"pressure $p$ [kPa]")
         if time is not None:
             _time_panel(axes[1], result, FONT_SIZE, LINE_COLOR)  # type: ignore[arg-type]
-        fig.savefig(file, dpi=300)
-    finally:
-        plt.close(fig)
 
 
 def _time_panel(ax: Axes, result: Trajectory, font_size: float, color: str) -> None:

@@ -144,11 +144,7 @@ def _run(
 
 def _figure(result: Sensitivity, file: Path) -> None:
     """sensitivity.png: one panel of elasticity bars per observable."""
-    import matplotlib
-
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
-
+    from biplan.plot.files import figure_file
     from biplan.plot.response import COLUMN_FIGSIZE
     from biplan.plot.sensitivity import elasticities
 
@@ -156,19 +152,16 @@ def _figure(result: Sensitivity, file: Path) -> None:
     cols = min(n, 3)
     rows = math.ceil(n / cols)
     height = max(COLUMN_FIGSIZE[1], 0.18 * len(result.parameters) + 0.8)
-    fig, axes = plt.subplots(
-        rows, cols, figsize=(COLUMN_FIGSIZE[0] * cols, height * rows), layout="constrained",
-        squeeze=False,
-    )  # fmt: skip
-    try:
+    size = (COLUMN_FIGSIZE[0] * cols, height * rows)
+    with figure_file(file, dpi=200, nrows=rows, ncols=cols, figsize=size, squeeze=False) as (
+        _,
+        axes,
+    ):
         for k, ax in enumerate(axes.ravel()):
             if k < n:
                 elasticities(result, observable=result.observables[k], ax=ax)
             else:
                 ax.set_visible(False)
-        fig.savefig(file, dpi=200)
-    finally:
-        plt.close(fig)
 
 
 def _summary(result: Sensitivity, out: Path) -> str:

@@ -130,17 +130,14 @@ def _pathways(graph: Any) -> tuple[list[list[str]], list[str]]:
 
 def write_states(catalogue: StateCatalogue, graph: Any, out: Path) -> list[Path]:
     """Write the files of ``biplan states`` for a catalogue and its graph; returns the paths."""
-    import matplotlib
-
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
-
     from biplan.analysis.states.catalogue import CSV_COLUMNS
     from biplan.analysis.states.hierarchy import hierarchy
     from biplan.analysis.states.transitions import write_graphml
     from biplan.io.config import dump_config
+    from biplan.plot.files import pyplot, save
     from biplan.plot.states import distributions, endpoint_space, transition_diagram
 
+    pyplot()  # the figures below go to files
     out.mkdir(parents=True, exist_ok=True)
     files = [out / n for n in ("states.csv", "seeds.csv", "states.nc", "hierarchy.nc")]
     with open(files[0], "w", newline="") as fh:
@@ -167,7 +164,7 @@ def write_states(catalogue: StateCatalogue, graph: Any, out: Path) -> list[Path]
                     s.seed,
                     "".join(map(str, s.seed_bits)),
                     "".join(map(str, s.reached_bits)),
-                    s.outcome,
+                    s.outcome.value,
                     s.state or "",
                     s.min_eigenvalue,
                     s.residual,
@@ -187,11 +184,7 @@ def write_states(catalogue: StateCatalogue, graph: Any, out: Path) -> list[Path]
         "distributions.png": lambda: distributions(hier)[0].figure,
     }
     for name, draw in figures.items():
-        fig = draw()
-        try:
-            fig.savefig(out / name, dpi=300)
-        finally:
-            plt.close(fig)
+        save(draw(), out / name)
         files.append(out / name)
     return files
 
@@ -230,6 +223,7 @@ def states(
     its finished chunks of seeds to --out/seeds/ (``--resume`` continues a killed run) and runs
     them on a Dask cluster with ``--workers N`` (a local one) or ``--scheduler ADDRESS``."""
     import biplan
+    from biplan.analysis.states.catalogue import Outcome
     from biplan.analysis.states.seeding import Search
     from biplan.analysis.states.transitions import transition_graph
 
@@ -272,7 +266,7 @@ def states(
     write_states(catalogue, graph, out)
     n_seeds = len(catalogue.seeds)
     mismatched = len(catalogue.mismatched_seeds)
-    failed = sum(s.outcome == "failed" for s in catalogue.seeds)
+    failed = sum(s.outcome is Outcome.FAILED for s in catalogue.seeds)
     Console(quiet=quiet, highlight=False).print(
         f"[green]{len(catalogue)} stable states[/] from {n_seeds} seeds "
         f"({mismatched} reached other bits, {len(catalogue.unstable_eigenvalues)} unstable "
@@ -286,8 +280,9 @@ def _seed_store(model: Any, out: Path, method: Any, yes: bool, resume: bool) -> 
     """The chunk store of an exhaustive search in ``out/seeds`` (None for the neighbourhood
     search), after the request's size is checked."""
     from biplan.analysis.states import seeding
+    from biplan.analysis.states.catalogue import Enumeration
     from biplan.analysis.states.labels import bistable_folds
-    from biplan.analysis.states.search import MAX_FOLDS, Enumeration
+    from biplan.analysis.states.search import MAX_FOLDS
     from biplan.io.config import dump_config
     from biplan.io.sweepstore import ChunkStore
 

@@ -38,8 +38,6 @@ if TYPE_CHECKING:
 
 __all__ = ["summary", "validate", "write_comparison"]
 
-DPI = 300
-
 
 def write_comparison(result: BandComparison, file: Path) -> None:
     """Write the comparison on the band grid (columns: module docstring)."""
@@ -92,20 +90,12 @@ def summary(result: BandComparison, path: QuasiStaticPath) -> list[str]:
 
 
 def _figure(result: BandComparison, file: Path) -> None:
-    import matplotlib
-
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
-
     from biplan.plot import validation_band
+    from biplan.plot.files import figure_file
     from biplan.plot.response import COLUMN_FIGSIZE
 
-    fig, ax = plt.subplots(figsize=COLUMN_FIGSIZE, layout="constrained")
-    try:
+    with figure_file(file, figsize=COLUMN_FIGSIZE) as (_, ax):
         validation_band(result, ax=ax)
-        fig.savefig(file, dpi=DPI)
-    finally:
-        plt.close(fig)
 
 
 def validate(

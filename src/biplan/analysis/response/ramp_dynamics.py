@@ -24,30 +24,25 @@ from __future__ import annotations
 import numpy as np
 
 from biplan._errors import ConfigError
-from biplan.analysis.modes import natural_modes, rayleigh_for_damping_ratio
+from biplan.analysis.modes import check_damping_ratio, rayleigh_at
 from biplan.model.assembly import Load, Model
 from biplan.solvers.control import ControlKind
 from biplan.solvers.dynamics import BackwardEuler, GeneralizedAlpha, LoadHistory, integrate
-from biplan.solvers.newton import Solution, Status, make_solution, solve_equilibrium
+from biplan.solvers.newton import Solution, Status, make_solution
 from biplan.solvers.results import Trajectory, TrajectoryStatus
 
 __all__ = ["continue_ramp"]
 
 
 def _rayleigh(model: Model, start: Solution, damping_ratio: float) -> float:
-    """α_R = 2 ζ ω₁ with ω₁ the first natural frequency at half the start force (on the
-    start's branch, below the limit point; in the unloaded tube every contact touches and
-    locks every mode). 0 when that state has no free mode or is not a stable equilibrium."""
-    half = solve_equilibrium(model, None, start, Load.of_force(0.5 * float(start.force)))
-    if not half.converged:
-        return 0.0
+    """α_R = 2 ζ ω₁ with ω₁ the first natural frequency at half the start force
+    (:func:`~biplan.analysis.modes.rayleigh_at`); 0 when that state is not a converged,
+    stable equilibrium with a free mode."""
+    check_damping_ratio(damping_ratio)
     try:
-        modes = natural_modes(model, half)
-    except ConfigError:  # not stable: no frequency
+        return rayleigh_at(model, start, Load.of_force(0.5 * float(start.force)), damping_ratio)
+    except ConfigError:
         return 0.0
-    if modes.angular_frequency.size == 0:
-        return 0.0
-    return rayleigh_for_damping_ratio(modes, damping_ratio)
 
 
 def continue_ramp(

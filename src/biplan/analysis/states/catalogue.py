@@ -9,17 +9,28 @@
 
 from __future__ import annotations
 
+import enum
 import json
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from typing import Any
 
 import numpy as np
 
-from biplan.analysis.states.search import Enumeration, SeedOutcome, StableState
+from biplan._errors import check_integer, check_range
 from biplan.geometry import FoldRef
 from biplan.model.assembly import Model
+from biplan.solvers.newton import Newton
+from biplan.solvers.observe import STABILITY_TOL
 
-__all__ = ["CSV_COLUMNS", "STRAIGHT", "StateCatalogue"]
+__all__ = [
+    "CSV_COLUMNS",
+    "STRAIGHT",
+    "Enumeration",
+    "Outcome",
+    "SeedOutcome",
+    "StableState",
+    "StateCatalogue",
+]
 
 #: Columns of the CSV form, in order.
 CSV_COLUMNS = (
@@ -41,6 +52,102 @@ CSV_COLUMNS = (
 #: leaves closed folds open by O(ε) mm, which tilts the end of a tube whose open folds are all
 #: circular by ~1e-7 rad. Normalising by such a max|θ| would turn rounding into Θ = ±1.
 STRAIGHT = 1e-6
+
+
+@dataclass(frozen=True)
+class Enumeration:
+    """Settings of the seeded relaxation.
+
+    Parameters
+    ----------
+    penalty_stiffness : float
+        k_p [N/mm] of the guide and contact penalties of the descent (the final KKT solve is
+        exact; k_p only sets how close the descent lands).
+    max_iterations : int
+        Most modified-Newton descent iterations per seed.
+    newton : Newton
+        Settings of the final KKT Newton solve (atol is the equilibrium tolerance).
+    chunk : int
+        Seeds per call of the compiled relaxation (fixed shape: one compilation for every
+        chunk; the last chunk is padded, its padding costs nothing).
+    lanes : int
+        Seeds in flight inside a call: the descent and the polish run on ``lanes`` refilled
+        ``vmap`` lanes, so a slow seed holds one lane, not the chunk.
+    duplicate_tolerance : float
+        Two equilibria are the same state when max |Δq| is below this [mm, rad].
+    stability_tolerance : float
+        λ_min of the reduced Hessian above this [N/mm] is stable.
+    """
+
+    penalty_stiffness: float = 1e4
+    max_iterations: int = 300
+    newton: Newton = field(default_factory=Newton)
+    chunk: int = 128
+    lanes: int = 8
+    duplicate_tolerance: float = 1e-5
+    stability_tolerance: float = STABILITY_TOL
+
+    def __post_init__(self) -> None:
+        check_range("Enumeration.penalty_stiffness", self.penalty_stiffness, low=0.0)
+        check_range("Enumeration.duplicate_tolerance", self.duplicate_tolerance, low=0.0)
+        check_range("Enumeration.stability_tolerance", self.stability_tolerance, low=0.0)
+        for name in ("max_iterations", "chunk", "lanes"):
+            v = check_integer(f"Enumeration.{name}", getattr(self, name), low=1)
+            object.__setattr__(self, name, v)
+
+
+@dataclass(frozen=True)
+class StableState:
+    """A distinct stable equilibrium at zero end load.
+
+    ``bits`` are the fold states (free end first,
+    :func:`~biplan.analysis.states.labels.bistable_folds`),
+    ``name`` is the label, made unique with a suffix (``1B.2``) when two distinct states share
+    bits. Lengths in mm, θ in rad, energy in N·mm, eigenvalue in N/mm.
+    """
+
+    name: str
+    label: str
+    bits: tuple[int, ...]
+    q: np.ndarray
+    z: np.ndarray
+    energy: float
+    u_z: float
+    u_r: float
+    theta: float
+    min_eigenvalue: float
+    phase_fraction: np.ndarray  # (N + Nc, 3): closed, spinodal, open
+    seeds: tuple[str, ...]
+
+
+class Outcome(enum.StrEnum):
+    """What a seed relaxed to (the value is what files hold)."""
+
+    STABLE = "stable"  #: a stable equilibrium; ``SeedOutcome.state`` names the state
+    UNSTABLE = "unstable"  #: an equilibrium with λ_min ≤ tolerance
+    FAILED = "failed"  #: no converged equilibrium; ``SeedOutcome.message`` says why
+
+
+@dataclass(frozen=True)
+class SeedOutcome:
+    """What one seed relaxed to (:class:`Outcome`)."""
+
+    seed: str
+    seed_bits: tuple[int, ...]
+    reached_bits: tuple[int, ...]
+    outcome: Outcome
+    state: str | None
+    min_eigenvalue: float
+    residual: float
+    message: str
+
+    def __post_init__(self) -> None:
+        object.__setattr__(self, "outcome", Outcome(self.outcome))
+
+    @property
+    def matches_seed(self) -> bool:
+        """Whether the equilibrium has the seed's own fold states."""
+        return self.reached_bits == self.seed_bits
 
 
 @dataclass(frozen=True)
@@ -107,7 +214,7 @@ class StateCatalogue:
     @property
     def mismatched_seeds(self) -> tuple[SeedOutcome, ...]:
         """Seeds that relaxed to a stable state other than their own bits."""
-        return tuple(s for s in self.seeds if s.outcome == "stable" and not s.matches_seed)
+        return tuple(s for s in self.seeds if s.outcome is Outcome.STABLE and not s.matches_seed)
 
     def rows(self) -> list[dict[str, Any]]:
         """One dict per state with the :data:`CSV_COLUMNS`."""
@@ -154,7 +261,7 @@ class StateCatalogue:
             ("state", "fold", "phase"),
             np.asarray([s.phase_fraction for s in self.states]).reshape(len(rows), -1, 3),
         )
-        data["seed_outcome"] = (("seed",), np.asarray([s.outcome for s in self.seeds]))
+        data["seed_outcome"] = (("seed",), np.asarray([s.outcome.value for s in self.seeds]))
         data["seed_state"] = (("seed",), np.asarray([s.state or "" for s in self.seeds]))
         data["seed_reached"] = (
             ("seed",),
@@ -190,7 +297,7 @@ class StateCatalogue:
             n_seeds=len(self.seeds),
             n_stable=len(self.states),
             n_unstable_equilibria=len(self.unstable_eigenvalues),
-            n_failed_seeds=sum(s.outcome == "failed" for s in self.seeds),
+            n_failed_seeds=sum(s.outcome is Outcome.FAILED for s in self.seeds),
             n_mismatched_seeds=len(self.mismatched_seeds),
             elapsed_s=self.elapsed,
         )
@@ -239,7 +346,7 @@ class StateCatalogue:
                 seed=str(seed),
                 seed_bits=label_to_bits(str(seed), n_bits),
                 reached_bits=bits(column("seed_reached")[k]),
-                outcome=str(column("seed_outcome")[k]),
+                outcome=Outcome(str(column("seed_outcome")[k])),
                 state=str(column("seed_state")[k]) or None,
                 min_eigenvalue=float(column("seed_min_eigenvalue")[k]),
                 residual=float("nan"),

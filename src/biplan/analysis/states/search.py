@@ -21,31 +21,33 @@ from __future__ import annotations
 
 import time
 from collections.abc import Callable
-from dataclasses import dataclass, field, replace
+from dataclasses import replace
 from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
 from biplan._compile.setup import jnp
-from biplan._errors import ConfigError, ConvergenceError, check_integer, check_range
+from biplan._errors import ConfigError, ConvergenceError
 from biplan.analysis.stability import Verdict, classify
 from biplan.analysis.states import seeding
+from biplan.analysis.states.catalogue import (
+    Enumeration,
+    Outcome,
+    SeedOutcome,
+    StableState,
+    StateCatalogue,
+)
 from biplan.analysis.states.labels import bistable_folds, bits_to_label, label_to_bits
 from biplan.analysis.states.seeding import Search, fold_vector_index, relax_seeds, seed_targets
 from biplan.model.assembly import Load, Model, phase_fractions
-from biplan.solvers.newton import Newton, Solution, Status, solve_equilibrium
-from biplan.solvers.observe import STABILITY_TOL
+from biplan.solvers.newton import Solution, Status, solve_equilibrium
 
 if TYPE_CHECKING:
     from biplan.analysis.maps.sweeps import ChunkSink
     from biplan.analysis.scaleout import Runner
-    from biplan.analysis.states.catalogue import StateCatalogue
 
 __all__ = [
-    "Enumeration",
     "Search",
-    "SeedOutcome",
-    "StableState",
     "enumerate_states",
     "fold_vector_index",
     "relax_state",
@@ -54,95 +56,6 @@ __all__ = [
 
 #: Largest number of bistable folds enumerated exhaustively (2¹⁸ seeds).
 MAX_FOLDS = 18
-
-
-@dataclass(frozen=True)
-class Enumeration:
-    """Settings of the seeded relaxation.
-
-    Parameters
-    ----------
-    penalty_stiffness : float
-        k_p [N/mm] of the guide and contact penalties of the descent (the final KKT solve is
-        exact; k_p only sets how close the descent lands).
-    max_iterations : int
-        Most modified-Newton descent iterations per seed.
-    newton : Newton
-        Settings of the final KKT Newton solve (atol is the equilibrium tolerance).
-    chunk : int
-        Seeds per call of the compiled relaxation (fixed shape: one compilation for every
-        chunk; the last chunk is padded, its padding costs nothing).
-    lanes : int
-        Seeds in flight inside a call: the descent and the polish run on ``lanes`` refilled
-        ``vmap`` lanes, so a slow seed holds one lane, not the chunk.
-    duplicate_tolerance : float
-        Two equilibria are the same state when max |Δq| is below this [mm, rad].
-    stability_tolerance : float
-        λ_min of the reduced Hessian above this [N/mm] is stable.
-    """
-
-    penalty_stiffness: float = 1e4
-    max_iterations: int = 300
-    newton: Newton = field(default_factory=Newton)
-    chunk: int = 128
-    lanes: int = 8
-    duplicate_tolerance: float = 1e-5
-    stability_tolerance: float = STABILITY_TOL
-
-    def __post_init__(self) -> None:
-        check_range("Enumeration.penalty_stiffness", self.penalty_stiffness, low=0.0)
-        check_range("Enumeration.duplicate_tolerance", self.duplicate_tolerance, low=0.0)
-        check_range("Enumeration.stability_tolerance", self.stability_tolerance, low=0.0)
-        for name in ("max_iterations", "chunk", "lanes"):
-            v = check_integer(f"Enumeration.{name}", getattr(self, name), low=1)
-            object.__setattr__(self, name, v)
-
-
-@dataclass(frozen=True)
-class StableState:
-    """A distinct stable equilibrium at zero end load.
-
-    ``bits`` are the fold states (free end first,
-    :func:`~biplan.analysis.states.labels.bistable_folds`),
-    ``name`` is the label, made unique with a suffix (``1B.2``) when two distinct states share
-    bits. Lengths in mm, θ in rad, energy in N·mm, eigenvalue in N/mm.
-    """
-
-    name: str
-    label: str
-    bits: tuple[int, ...]
-    q: np.ndarray
-    z: np.ndarray
-    energy: float
-    u_z: float
-    u_r: float
-    theta: float
-    min_eigenvalue: float
-    phase_fraction: np.ndarray  # (N + Nc, 3): closed, spinodal, open
-    seeds: tuple[str, ...]
-
-
-@dataclass(frozen=True)
-class SeedOutcome:
-    """What one seed relaxed to.
-
-    ``outcome`` is ``"stable"`` (``state`` names the state), ``"unstable"`` (an equilibrium
-    with λ_min ≤ tolerance), or ``"failed"`` (no converged equilibrium; ``message`` says why).
-    """
-
-    seed: str
-    seed_bits: tuple[int, ...]
-    reached_bits: tuple[int, ...]
-    outcome: str
-    state: str | None
-    min_eigenvalue: float
-    residual: float
-    message: str
-
-    @property
-    def matches_seed(self) -> bool:
-        """Whether the equilibrium has the seed's own fold states."""
-        return self.reached_bits == self.seed_bits
 
 
 def state_bits(model: Model, q: np.ndarray) -> tuple[int, ...]:
@@ -245,7 +158,6 @@ def enumerate_states(
     StateCatalogue
         ``seeds`` holds every seed tried, in seed order.
     """
-    from biplan.analysis.states.catalogue import StateCatalogue
 
     settings = settings or Enumeration()
     if not isinstance(search, Search):
@@ -283,15 +195,15 @@ def enumerate_states(
         if stable[i]:
             seeds_of[int(state_of[i])].append(common["seed"])
             outcome = SeedOutcome(
-                **common, outcome="stable", state=name_of[int(state_of[i])], message=""
+                **common, outcome=Outcome.STABLE, state=name_of[int(state_of[i])], message=""
             )
         elif converged[i]:
             message = f"equilibrium with λ_min = {eig:.3g} N/mm ≤ {settings.stability_tolerance:g}"
-            outcome = SeedOutcome(**common, outcome="unstable", state=None, message=message)
+            outcome = SeedOutcome(**common, outcome=Outcome.UNSTABLE, state=None, message=message)
         else:
             code = int(res["status"][i])
             message = Status(code).message if code in (0, 1, 2, 3) else ""
-            outcome = SeedOutcome(**common, outcome="failed", state=None, message=message)
+            outcome = SeedOutcome(**common, outcome=Outcome.FAILED, state=None, message=message)
         outcomes.append(outcome)
     built = tuple(
         StableState(

@@ -41,7 +41,7 @@ from biplan.solvers.observe import observe_batch
 
 if TYPE_CHECKING:
     from biplan.analysis.maps.sweeps import ChunkSink
-    from biplan.analysis.states.search import Enumeration
+    from biplan.analysis.states.catalogue import Enumeration
 
 __all__ = [
     "CONFIRM_SEEDS",
