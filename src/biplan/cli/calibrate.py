@@ -149,19 +149,13 @@ def _figure(result: Calibration, file: Path) -> None:
         calibration_band(result, ax=ax)
 
 
-def _format_changes(*values: object) -> dict[str, object]:
-    """SpecimenFormat fields from the column/unit options, in their declared order."""
-    names = (
-        "displacement",
-        "force",
-        "pressure",
-        "segment",
-        "displacement_unit",
-        "force_unit",
-        "pressure_unit",
-        "min_points",
-    )
-    return dict(zip(names, values, strict=True))
+def format_changes(options: dict[str, object]) -> dict[str, object]:
+    """SpecimenFormat fields from a command's column/unit options (its ``locals()``)."""
+    return {
+        **{q: options[f"{q}_column"] for q in ("displacement", "force", "pressure", "segment")},
+        **{f"{q}_unit": options[f"{q}_unit"] for q in ("displacement", "force", "pressure")},
+        "min_points": options["min_points"],
+    }
 
 
 def _run(
@@ -262,6 +256,7 @@ def trilinear(
     quiet: Quiet = False,
 ) -> None:
     """Fit a trilinear (bistable) law to two-phase CFT specimens; write a TOML law block."""
+    options = dict(locals())
     _run(
         "trilinear",
         data_dir,
@@ -272,16 +267,7 @@ def trilinear(
         fold_set.value,
         quiet,
         {"radius": radius, "n_folds": n_folds},
-        _format_changes(
-            displacement_column,
-            force_column,
-            pressure_column,
-            segment_column,
-            displacement_unit,
-            force_unit,
-            pressure_unit,
-            min_points,
-        ),
+        format_changes(options),
         {
             "breakpoints": breakpoints.value,
             "n_bootstrap": bootstrap,
@@ -320,6 +306,7 @@ def linear(
     quiet: Quiet = False,
 ) -> None:
     """Fit a linear law to CFT specimens; write a TOML law block (default: helical folds)."""
+    options = dict(locals())
     _run(
         "linear",
         data_dir,
@@ -330,15 +317,6 @@ def linear(
         fold_set.value,
         quiet,
         {"radius": radius, "n_folds": n_folds},
-        _format_changes(
-            displacement_column,
-            force_column,
-            pressure_column,
-            segment_column,
-            displacement_unit,
-            force_unit,
-            pressure_unit,
-            min_points,
-        ),
+        format_changes(options),
         {"offset": offset, "n_bootstrap": bootstrap, "confidence": confidence, "seed": seed},
     )

@@ -30,7 +30,7 @@ from rich.markup import escape
 
 from biplan._errors import check_range
 from biplan.cli._checks import options_named, output_directory
-from biplan.cli.calibrate import FORMAT_OPTIONS, Column, MinPoints, Quiet, Unit, _format_changes
+from biplan.cli.calibrate import FORMAT_OPTIONS, Column, MinPoints, Quiet, Unit, format_changes
 
 if TYPE_CHECKING:
     from biplan.analysis.response.quasistatic import QuasiStaticPath
@@ -128,6 +128,7 @@ def validate(
     quiet: Quiet = False,
 ) -> None:
     """Run a design and compare its force–displacement curve with measured specimens."""
+    options = dict(locals())
     from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn
 
     import biplan
@@ -144,16 +145,7 @@ def validate(
     with options_named(FORMAT_OPTIONS):
         fmt = with_overrides(
             SpecimenFormat(),
-            **_format_changes(
-                displacement_column,
-                force_column,
-                pressure_column,
-                segment_column,
-                displacement_unit,
-                force_unit,
-                pressure_unit,
-                min_points,
-            ),
+            **format_changes(options),
         )
     tube = biplan.load_config(config)
     specimens = read_specimens(measured_dir, fmt, radius=tube.development.radius)
