@@ -36,14 +36,14 @@ t0 = time.perf_counter()
 import numpy as np
 import biplan
 if {oracle}:
-    from biplan.model import assembly, oracle as _oracle
+    from biplan.model import lagrangian, oracle as _oracle
     from biplan.solvers import _pathkernel, observe, _dynkernel
     from biplan.analysis.maps import design_map
-    for mod in (assembly, _pathkernel, _dynkernel, design_map):
+    for mod in (lagrangian, _pathkernel, _dynkernel, design_map):
         for name in ("residual", "kkt_jacobian"):
             if hasattr(mod, name):
                 setattr(mod, name, getattr(_oracle, name))
-    for mod in (assembly, observe):
+    for mod in (lagrangian, observe):
         mod.state_data = _oracle.state_data
 n, design = {n}, "{design}"
 if design == "semi":
@@ -83,7 +83,7 @@ PIECES = r"""
 import json, os, time
 import numpy as np
 import biplan
-from biplan.model import assembly as asm, elements as E, oracle as _oracle
+from biplan.model import assembly as asm, elements as E, lagrangian, oracle as _oracle
 from biplan._compile.setup import jax, jnp
 n = {n}
 t = biplan.designs.semi_bistable()
@@ -95,9 +95,9 @@ nq, ng = L.n_coordinates, m.n_guides
 pieces = dict(
     elements=lambda zz: E.local_terms(L, p, zz[:nq], zz[nq:nq + ng], zz[nq + ng:-1]),
     chain=lambda zz: E.chain_terms(L, p.geometry, zz[:nq]),
-    jacobian=lambda zz: asm.kkt_jacobian(L, p, zz, load),
+    jacobian=lambda zz: lagrangian.kkt_jacobian(L, p, zz, load),
     oracle_jacobian=lambda zz: _oracle.kkt_jacobian(L, p, zz, load),
-    jacobian_and_lu=lambda zz: jax.scipy.linalg.lu_factor(asm.kkt_jacobian(L, p, zz, load)),
+    jacobian_and_lu=lambda zz: jax.scipy.linalg.lu_factor(lagrangian.kkt_jacobian(L, p, zz, load)),
 )
 out = {{}}
 for name, f in pieces.items():

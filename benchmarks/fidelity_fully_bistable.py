@@ -32,9 +32,10 @@ TOLERANCE = 0.05
 
 def _claims(folder: Path, tube: object) -> dict[str, tuple[str, str]]:
     """claim id → (verdict, finding) of the Fig. 4 and SI distribution claims."""
-    from biplan.cli.reproduce import state_facts
     from biplan.io.config import dump_config
-    from biplan.reproduction.claims import CLAIMS, Results, assess
+    from biplan.reproduction.claims import CLAIMS
+    from biplan.reproduction.facts import Results, state_facts
+    from biplan.reproduction.report import assess
 
     folder.mkdir(parents=True, exist_ok=True)
     config = folder / "design.toml"

@@ -1,6 +1,6 @@
 """The local assembly (element blocks + chain term) equals the whole-tube autodiff oracle.
 
-:mod:`biplan.model.assembly` builds the KKT residual and Jacobian from per-element autodiff
+:mod:`biplan.model.lagrangian` builds the KKT residual and Jacobian from per-element autodiff
 (:mod:`biplan.model.elements`); :mod:`biplan.model.oracle` differentiates one Lagrangian of the
 whole
 chain. They must agree to round-off on every layout and reading: force and displacement
@@ -19,8 +19,10 @@ import pytest
 import biplan
 from biplan._compile.setup import jax, jnp, kernel_options
 from biplan.geometry import chain
-from biplan.model import assembly as asm
+from biplan.geometry.layout import TubeLayout
+from biplan.model import lagrangian, potential
 from biplan.model import oracle as _oracle
+from biplan.model.params import Load
 from biplan.options import ChainOffset, ContactForm, ModelOptions, TpcSign
 from conftest import make_tube, random_configuration
 
@@ -38,8 +40,8 @@ LAYOUTS = {
 }
 
 LOADS = {
-    "force": asm.Load(1.3, 0.0, 0.0),
-    "displacement": asm.Load(0.0, 0.7, 1.0),
+    "force": Load(1.3, 0.0, 0.0),
+    "displacement": Load(0.0, 0.7, 1.0),
 }
 
 
@@ -48,7 +50,7 @@ def _relative(a: np.ndarray, b: np.ndarray) -> float:
 
 
 @functools.cache
-def _both(layout: asm.TubeLayout):
+def _both(layout: TubeLayout):
     """One compiled kernel per layout: (local, oracle) residual, Jacobian and state data."""
 
     def pair(fn_local, fn_oracle, p, z, load):
@@ -56,15 +58,15 @@ def _both(layout: asm.TubeLayout):
 
     def all_three(p, z, load):
         return (
-            pair(asm.residual, _oracle.residual, p, z, load),
-            pair(asm.kkt_jacobian, _oracle.kkt_jacobian, p, z, load),
-            pair(asm.state_data, _oracle.state_data, p, z, load),
+            pair(lagrangian.residual, _oracle.residual, p, z, load),
+            pair(lagrangian.kkt_jacobian, _oracle.kkt_jacobian, p, z, load),
+            pair(lagrangian.state_data, _oracle.state_data, p, z, load),
         )
 
     return jax.jit(all_three, compiler_options=kernel_options())
 
 
-def _compare(model: biplan.Model, z: np.ndarray, load: asm.Load) -> None:
+def _compare(model: biplan.Model, z: np.ndarray, load: Load) -> None:
     (r, r_ref), (j, j_ref), (s, s_ref) = _both(model.layout)(
         model.params, jnp.asarray(z), load.for_kernel()
     )
@@ -97,7 +99,7 @@ def test_local_assembly_at_solved_states_with_active_contacts(model6, reference6
     assert np.count_nonzero(lam_c > 1e-3) > 0  # some contacts are active and pressed
     _compare(model6, sol.z, load)
     biased = model6.with_bias(model6.split(sol.z)[0] + 0.01, 0.5)
-    _compare(biased, sol.z, asm.Load(0.0, 0.3, 1.0))
+    _compare(biased, sol.z, Load(0.0, 0.3, 1.0))
 
 
 def test_model_hessian_and_jacobians_equal_global_autodiff(model6, rng):
@@ -107,9 +109,9 @@ def test_model_hessian_and_jacobians_equal_global_autodiff(model6, rng):
 
     def oracle(x):
         return (
-            jax.hessian(lambda y: asm.energy(layout, p, y))(x),
-            jax.jacfwd(lambda y: asm.guide_values(layout, p, y))(x),
-            jax.jacfwd(lambda y: asm.contact_gaps(layout, p, y))(x),
+            jax.hessian(lambda y: potential.energy(layout, p, y))(x),
+            jax.jacfwd(lambda y: potential.guide_values(layout, p, y))(x),
+            jax.jacfwd(lambda y: potential.contact_gaps(layout, p, y))(x),
         )
 
     h, g, c = jax.jit(oracle, compiler_options=kernel_options())(jnp.asarray(q))
@@ -138,7 +140,7 @@ def test_printed_tpc_sign_mirrors_the_first_field_of_each_tpc():
 
 
 def test_curvature_is_the_quadratic_form_of_the_assembled_matrices(model2, rng):
-    """assembly.curvature (directional derivatives, no matrix) = xᵀ K x − 2 ηᵀ A x with K and
+    """lagrangian.curvature (directional derivatives, no matrix) = xᵀ K x − 2 ηᵀ A x with K and
     A of state_data, under force and displacement control."""
     layout, p = model2.layout, model2.params
     q = random_configuration(model2, rng)
@@ -146,9 +148,9 @@ def test_curvature_is_the_quadratic_form_of_the_assembled_matrices(model2, rng):
 
     @functools.partial(jax.jit, compiler_options=kernel_options())
     def both(z, load, x, eta):
-        data = asm.state_data(layout, p, z, load)
+        data = lagrangian.state_data(layout, p, z, load)
         quad = x @ data.lagrangian_hessian @ x - 2.0 * eta @ (data.constraint_jacobian @ x)
-        return asm.curvature(layout, p, z, load, x, eta), quad
+        return lagrangian.curvature(layout, p, z, load, x, eta), quad
 
     for load in LOADS.values():
         z = model2.pack(

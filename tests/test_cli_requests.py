@@ -43,7 +43,7 @@ def no_solve(monkeypatch: pytest.MonkeyPatch) -> None:
     monkeypatch.setattr(biplan.analysis.response.quasistatic, "displacement_sweep", _forbidden)
     monkeypatch.setattr(biplan.calibration.calibrate, "calibrate_trilinear", _forbidden)
     monkeypatch.setattr(biplan.io.results, "load_result", _forbidden)
-    monkeypatch.setattr(biplan.cli.reproduce, "run_stages", _forbidden)
+    monkeypatch.setattr(biplan.cli.reproduce, "run_reproduction", _forbidden)
 
 
 def _refused(capsys: pytest.CaptureFixture[str], args: list[str], *needles: str) -> str:

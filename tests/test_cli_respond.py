@@ -59,7 +59,7 @@ def test_bifurcation_note_names_the_first_bifurcation_only_when_there_is_one() -
     from types import SimpleNamespace
 
     from biplan.cli.respond import bifurcation_note
-    from biplan.solvers.results import Event
+    from biplan.solvers.path_results import Event
 
     limit = Event("limit point", 3, 1.5, 2.1, 1.5)
     bif = Event("bifurcation", 8, 1.54, 2.126, 1.54)

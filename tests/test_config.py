@@ -10,13 +10,8 @@ import pytest
 
 import biplan
 from biplan import ConfigError, Development, LinearLaw, ModelOptions, TrilinearLaw, Tube
-from biplan.io.config import (
-    ConfigFileError,
-    dump_config,
-    load_config,
-    load_config_text,
-    tube_from_dict,
-)
+from biplan.io.config import dump_config, load_config, load_config_text, tube_from_dict
+from biplan.io.config_reader import ConfigFileError
 from biplan.options import MirrorConvention, TransitionReading
 
 EXAMPLES = Path(__file__).resolve().parents[1] / "examples"

@@ -13,15 +13,9 @@ import numpy as np
 import pytest
 
 from biplan._compile.setup import jax, jnp
-from biplan.solvers.core import (
-    Settings,
-    Status,
-    chord,
-    damped,
-    iterate,
-    minimum_norm,
-    residual_norm,
-)
+from biplan.solvers.core import iterate
+from biplan.solvers.core_settings import Settings, Status
+from biplan.solvers.strategies import chord, damped, minimum_norm, residual_norm
 
 
 def _residual(x):

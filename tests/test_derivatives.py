@@ -12,7 +12,7 @@ import numpy as np
 import pytest
 
 import biplan
-from biplan.model.assembly import sfb
+from biplan.model.lagrangian import sfb
 from conftest import random_configuration
 
 LAYOUTS = ["model1", "model2", "model6", "model4"]

@@ -517,7 +517,7 @@ def test_watchdog_length_is_checked():
 
 def test_state_returned_by_the_solve_equals_a_fresh_evaluation(model6, reference6):
     """The solve kernel returns the state's data from the Jacobian of its last Newton pass
-    (``assembly.state_from_jacobian``); it equals ``state_data`` evaluated afresh at the
+    (``lagrangian.state_from_jacobian``); it equals ``state_data`` evaluated afresh at the
     solution, under force and displacement control."""
     for load in (Load.of_force(1.2), Load.of_displacement(2.0)):
         sol = biplan.solve_equilibrium(model6, Newton(), reference6, load)

@@ -18,7 +18,8 @@ from biplan._compile import kernel as _kernels
 from biplan._compile import setup as _jax
 from biplan._compile.kernel import StoredKernel, stored_jit
 from biplan._compile.setup import jax, jnp, kernel_options
-from biplan.model.assembly import Load, residual
+from biplan.model.lagrangian import residual
+from biplan.model.params import Load
 
 
 class Pair(NamedTuple):

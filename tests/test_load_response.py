@@ -22,7 +22,7 @@ import biplan
 from biplan.analysis.response.loadcontrol import first_snap, load_response
 from biplan.analysis.response.summary import softening_steps, summarize
 from biplan.model.tube import Tube
-from biplan.solvers.results import PathStatus
+from biplan.solvers.path_results import PathStatus
 
 ROOT = Path(__file__).resolve().parents[1]
 

@@ -10,7 +10,9 @@ import pytest
 
 from biplan._compile import linalg
 from biplan._compile.setup import jax, jnp, kernel_options
-from biplan.model.assembly import Load, contact_gaps, kkt_jacobian
+from biplan.model.lagrangian import kkt_jacobian
+from biplan.model.params import Load
+from biplan.model.potential import contact_gaps
 from biplan.solvers.newton import Newton, Status, newton_loop, solve_loop
 from biplan.solvers.observe import kkt_min_eigenvalue, observe
 from biplan.solvers.pool import newton_pool
@@ -42,7 +44,7 @@ def test_sequential_vmap_matches_batched_linear_algebra() -> None:
 @pytest.fixture(scope="module")
 def tasks(model6):
     """Seeds of the displacement-controlled search at two displacements: fast and slow ones."""
-    from biplan.analysis.maps.stability_map import seeds
+    from biplan.analysis.maps.stability_seeds import seeds
 
     m = model6
     u = np.r_[0.01, 0.1] * m.tube.initial_length

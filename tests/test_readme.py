@@ -22,7 +22,9 @@ def _example() -> str:
 
 def _claims(code: str) -> list[str]:
     """The comment of every ``print`` line, in order."""
-    return [line.split("#", 1)[1].strip() for line in code.splitlines() if line.startswith("print(")]
+    return [
+        line.split("#", 1)[1].strip() for line in code.splitlines() if line.startswith("print(")
+    ]
 
 
 def _agrees(printed: str, claim: str) -> bool:

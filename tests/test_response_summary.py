@@ -68,7 +68,7 @@ def test_phase_one_is_one_definition() -> None:
     step: the first failure, instability, snap or stable fall of the force."""
     from biplan.analysis.response.summary import phase_one_end
     from biplan.cli.demo import phase_one
-    from biplan.reproduction.claims import SemiBistableFacts
+    from biplan.reproduction.facts import SemiBistableFacts
 
     cases = {
         "softening": ([1.0, 2.0, 3.0, 2.5, 9.0], [1] * 5, [0] * 5, 3),

@@ -35,7 +35,7 @@ def symmetric_path(model6, reference6):
 
 def _circular_fractions(model, q) -> np.ndarray:
     """(closed, spinodal, open) length fractions of every circular fold, (Nc, 3)."""
-    frac = biplan.model.assembly.phase_fractions(model.layout, model.params, q)
+    frac = biplan.model.potential.phase_fractions(model.layout, model.params, q)
     return np.asarray(frac)[model.layout.n_modules :]
 
 

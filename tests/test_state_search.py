@@ -207,20 +207,21 @@ def test_states_command_checks_the_search_request_first(tmp_path, monkeypatch, c
 @pytest.mark.parametrize("which", ["fully_bistable_2", "base_fold_1"])
 def test_at_rest_assembly_equals_the_general_one_at_zero_load(which, model2fb, model1):
     """The polish of the searches drops the load point's terms at rest: same r and KKT J."""
-    from biplan.model import assembly
+    from biplan.model import lagrangian
+    from biplan.model.params import Load
 
     model = model2fb if which == "fully_bistable_2" else model1
-    zero = assembly.Load.of_force(0.0).for_kernel()
+    zero = Load.of_force(0.0).for_kernel()
     layout, params = model.layout, model.params
 
     @jax.jit
     @jax.vmap
     def both(z):  # type: ignore[no-untyped-def]
         return (
-            assembly.residual_at_rest(layout, params, z),
-            assembly.residual(layout, params, z, zero),
-            assembly.kkt_jacobian_at_rest(layout, params, z),
-            assembly.kkt_jacobian(layout, params, z, zero),
+            lagrangian.residual_at_rest(layout, params, z),
+            lagrangian.residual(layout, params, z, zero),
+            lagrangian.kkt_jacobian_at_rest(layout, params, z),
+            lagrangian.kkt_jacobian(layout, params, z, zero),
         )
 
     z = np.random.default_rng(7).normal(scale=0.05, size=(3, model.n_unknowns))

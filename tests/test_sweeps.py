@@ -20,12 +20,12 @@ from biplan import ConfigError, LinearLaw, TrilinearLaw
 from biplan.analysis.maps.design_map import ForceRamp, ResponseEvaluator, response_point
 from biplan.analysis.maps.stability_map import (
     StabilityEvaluator,
-    StabilitySearch,
     points_per_kernel,
-    pushing,
     stability_chunk_size,
     transition_band,
 )
+from biplan.analysis.maps.stability_search import StabilitySearch
+from biplan.analysis.maps.stability_seeds import pushing
 from biplan.analysis.maps.sweeps import (
     QUANTITIES,
     STATUS,
@@ -424,7 +424,7 @@ def test_dynamic_finish_falls_back_to_backward_euler(model1, monkeypatch) -> Non
 
     from biplan.analysis.response import ramp_dynamics
     from biplan.solvers import BackwardEuler
-    from biplan.solvers.results import TrajectoryStatus
+    from biplan.solvers.trajectory_results import TrajectoryStatus
 
     calls = []
 

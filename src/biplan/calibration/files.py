@@ -43,7 +43,7 @@ from biplan._errors import ConfigError, check_integer
 from biplan.calibration.calibrate import Calibration
 from biplan.calibration.fits import CftGeometry
 from biplan.calibration.specimens import MIN_POINTS, Segment, Specimen, segment_problem
-from biplan.io.config import _law_lines
+from biplan.io.config_writer import law_lines
 from biplan.laws import LinearLaw, TransitionReading, TrilinearLaw
 
 __all__ = [
@@ -447,7 +447,7 @@ def law_toml(
     else:
         law = LinearLaw(_round(law.stiffness))
     lines = [f"# {c}" if c else "#" for c in comments]
-    lines += [f"[laws.{fold_set}]", *_law_lines(law, TransitionReading(reading))]
+    lines += [f"[laws.{fold_set}]", *law_lines(law, TransitionReading(reading))]
     return "\n".join(lines) + "\n"
 
 

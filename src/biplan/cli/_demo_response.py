@@ -21,7 +21,7 @@ from typing import TYPE_CHECKING
 
 if TYPE_CHECKING:
     from biplan.model.assembly import Model
-    from biplan.solvers.results import Snap
+    from biplan.solvers.path_results import Snap
 
 __all__ = ["run_response"]
 

@@ -397,11 +397,8 @@ def stability(
     """Displacement-controlled stability map over (C, U/l0) at fixed b: count of stable
     equilibria (1 mono, 2 bi, ≥3 multi) and the transition band."""
     import biplan
-    from biplan.analysis.maps.stability_map import (
-        StabilityEvaluator,
-        StabilitySearch,
-        stability_chunk_size,
-    )
+    from biplan.analysis.maps.stability_map import StabilityEvaluator, stability_chunk_size
+    from biplan.analysis.maps.stability_search import StabilitySearch
     from biplan.analysis.maps.sweeps import Grid, apply_values, check_grid, parse_axis
 
     _check_runner(ctx, out, chunk_size, workers, scheduler, threads)

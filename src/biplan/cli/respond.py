@@ -58,8 +58,8 @@ if TYPE_CHECKING:
     from biplan.analysis.response.summary import ResponseSummary
     from biplan.model.assembly import Model
     from biplan.solvers import Trajectory
-    from biplan.solvers.results import Path as ResponsePath
-    from biplan.solvers.results import Snap
+    from biplan.solvers.path_results import Path as ResponsePath
+    from biplan.solvers.path_results import Snap
 
 __all__ = ["EXIT_SHORT", "Method", "bifurcation_note", "respond"]
 

@@ -1,8 +1,9 @@
 """Result files: labelled datasets of paths and trajectories in netCDF and CSV.
 
-* :func:`dataset` — a :class:`~biplan.solvers.results.Path` or
-  :class:`~biplan.solvers.results.Trajectory` as an ``xarray.Dataset`` whose attributes carry
-  the tube's TOML configuration (``config``) so that the file re-opens as a model;
+* :func:`dataset` — a :class:`~biplan.solvers.path_results.Path` or
+  :class:`~biplan.solvers.trajectory_results.Trajectory` as an ``xarray.Dataset`` whose
+  attributes carry the tube's TOML configuration (``config``) so that the file re-opens as a
+  model;
 * :func:`save` — write ``.nc`` (netCDF4 via h5netcdf) or ``.csv`` (one row per step/time, the
   scalar observables; units in the header comment line);
 * :func:`load_result` and :func:`model_of` — read a netCDF result and rebuild its model;
@@ -25,7 +26,9 @@ from biplan._errors import ConfigError
 from biplan.analysis.response.quasistatic import SWEEP_KIND, QuasiStaticPath
 from biplan.io.config import dump_config, load_config_text
 from biplan.model.assembly import Load, Model
-from biplan.solvers.results import Path, Trajectory
+from biplan.solvers.path_results import Path
+from biplan.solvers.results import ENERGY_BALANCE, RESPONSE_VARIABLES
+from biplan.solvers.trajectory_results import Trajectory
 
 __all__ = [
     "CSV_COLUMNS",
@@ -45,20 +48,8 @@ __all__ = [
 ]
 
 #: Scalar columns of the CSV form, in order (``t`` first for trajectories).
-CSV_COLUMNS = (
-    "load_parameter",
-    "force",
-    "displacement",
-    "u_z",
-    "u_r",
-    "theta",
-    "energy",
-    "helical_energy",
-    "circular_energy",
-    "min_eigenvalue",
-    "stable",
-)
-_TRAJECTORY_EXTRA = ("kinetic_energy", "external_work", "dissipated_energy", "total_energy")
+CSV_COLUMNS = (*RESPONSE_VARIABLES, "min_eigenvalue", "stable")
+_TRAJECTORY_EXTRA = ENERGY_BALANCE
 #: Columns of a stable-branch sweep: name → (unit, description).
 SWEEP_COLUMNS = {
     "displacement": ("mm", "prescribed load-point displacement U"),

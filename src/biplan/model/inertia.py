@@ -25,7 +25,8 @@ import numpy as np
 
 from biplan._compile.setup import jax, jnp
 from biplan.geometry import chain
-from biplan.model.assembly import ModelParams, TubeLayout
+from biplan.geometry.layout import TubeLayout
+from biplan.model.params import ModelParams
 
 __all__ = ["TRIANGLES", "inertia_force", "mass_matrix", "quadrature_points", "quadrature_weights"]
 

@@ -1,6 +1,6 @@
 """The whole-tube autodiff of the Lagrangian: the independent check of the local assembly.
 
-:mod:`biplan.model.assembly` assembles the residual and the KKT Jacobian from element blocks
+:mod:`biplan.model.lagrangian` assembles the residual and the KKT Jacobian from element blocks
 (:mod:`biplan.model.elements`). This module keeps the original global form: one Lagrangian of the
 whole chain, differentiated by ``jax.grad`` / ``jax.hessian`` / ``jax.jacfwd`` over all n_q
 coordinates at once. It costs O(N²) or more per evaluation and compiles slowly, so no solver
@@ -15,18 +15,9 @@ from typing import Any
 from biplan._compile.setup import jax, jnp
 from biplan.geometry import chain
 from biplan.geometry.layout import TubeLayout
-from biplan.model.assembly import (
-    Load,
-    ModelParams,
-    StateData,
-    _energies,
-    _gaps,
-    _kin,
-    _sizes,
-    _split,
-    kkt_matrix,
-    sfb,
-)
+from biplan.model.lagrangian import StateData, _sizes, _split, kkt_matrix, sfb
+from biplan.model.params import Load, ModelParams
+from biplan.model.potential import _energies, _gaps, _kin
 
 __all__ = ["kkt_jacobian", "lagrangian", "residual", "state_data"]
 
@@ -105,8 +96,8 @@ def kkt_jacobian(layout: TubeLayout, p: ModelParams, z: Array, load: Load) -> Ar
     of (g, w_∂, z_p), D_w = diag(ŵ/ρ − 1), D_λ = diag(c (ŵ/ρ − 1) + λ/ρ − 1),
     ρ = √(ŵ² + λ² + ε²), ŵ = w + c λ (c: ``ModelOptions.contact_compliance``).
     The blocks come from this module's global autodiff; their arrangement is the
-    assembly's :func:`biplan.model.assembly.kkt_matrix` (itself checked against the autodiff of the
-    whole residual, ``Model.jacobian_autodiff``).
+    assembly's :func:`biplan.model.lagrangian.kkt_matrix` (itself checked against the autodiff of
+    the whole residual, ``Model.jacobian_autodiff``).
     """
     nq, ng, nc = _sizes(layout)
     q, _lam, lam_c, _mu = _split(layout, z)

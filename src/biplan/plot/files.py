@@ -28,7 +28,7 @@ def pyplot() -> ModuleType:
     return plt
 
 
-def save(fig: Any, file: str | Path, *, dpi: int = DPI) -> None:
+def save(fig: Any, file: str | Path, *, dpi: float = DPI) -> None:
     """Write ``fig`` to ``file`` (format from the suffix) and close it."""
     try:
         fig.savefig(file, dpi=dpi)
@@ -37,7 +37,9 @@ def save(fig: Any, file: str | Path, *, dpi: int = DPI) -> None:
 
 
 @contextmanager
-def figure_file(file: str | Path, *, dpi: int = DPI, **subplots: Any) -> Iterator[tuple[Any, Any]]:
+def figure_file(
+    file: str | Path, *, dpi: float = DPI, **subplots: Any
+) -> Iterator[tuple[Any, Any]]:
     """A new figure (constrained layout) and its axes, written to ``file`` when the block ends
     without an error, and closed in every case.
 
@@ -45,7 +47,7 @@ def figure_file(file: str | Path, *, dpi: int = DPI, **subplots: Any) -> Iterato
     ----------
     file : str or Path
         Output file; the format follows the suffix.
-    dpi : int
+    dpi : float
         Resolution [dots per inch].
     **subplots
         Passed to ``plt.subplots`` (``figsize`` [in], ``nrows``, ``ncols``, …).

@@ -10,7 +10,7 @@ unstable stretches dashed; a displacement-controlled snap (the sweep left an equ
 stable one on another branch, ``path.switched``) breaks the curve, is joined to the previous
 step by a thin dotted drop and marked with an open circle. Failed steps (NaN force) are gaps.
 States flagged ``is_event`` (located limit points and bifurcations of a
-:class:`~biplan.solvers.results.Path`) are marked with crosses. A legend names the styles
+:class:`~biplan.solvers.path_results.Path`) are marked with crosses. A legend names the styles
 drawn (stable, unstable, branch switch, limit point) and sits above the axes
 (:func:`legend_above`), where it cannot cover the curve.
 """

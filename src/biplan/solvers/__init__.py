@@ -14,11 +14,11 @@ from biplan.solvers.newton import Solution as Solution
 from biplan.solvers.newton import Status as Status
 from biplan.solvers.newton import relaxed_reference as relaxed_reference
 from biplan.solvers.newton import solve_equilibrium as solve_equilibrium
-from biplan.solvers.results import Event as Event
-from biplan.solvers.results import Path as Path
-from biplan.solvers.results import PathStatus as PathStatus
-from biplan.solvers.results import Trajectory as Trajectory
-from biplan.solvers.results import TrajectoryStatus as TrajectoryStatus
+from biplan.solvers.path_results import Event as Event
+from biplan.solvers.path_results import Path as Path
+from biplan.solvers.path_results import PathStatus as PathStatus
+from biplan.solvers.trajectory_results import Trajectory as Trajectory
+from biplan.solvers.trajectory_results import TrajectoryStatus as TrajectoryStatus
 
 __all__ = [
     "ArcLength",

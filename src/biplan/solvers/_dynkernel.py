@@ -7,7 +7,7 @@ Per step the unknowns are z_{n+1} = [q, λ, λ_∂, μ] at t_{n+1}; with the New
     v_{n+1}  = v_n + h (1 − γ) a_n + h γ a_{n+1}
     q̈_{n+1} = ((1 − α_m) a_{n+1} + α_m a_n − α_f q̈_n) / (1 − α_f)
 
-the residual is the static KKT residual of :func:`biplan.model.assembly.residual` at t_{n+1} plus
+the residual is the static KKT residual of :func:`biplan.model.lagrangian.residual` at t_{n+1} plus
 the inertia and Rayleigh forces M(q)(q̈ + α_R q̇) + c(q, q̇) in the q rows; the guides and the
 SFB contact conditions hold at t_{n+1} (index 3). Its Jacobian is the static KKT Jacobian plus
 the autodiff derivative of the inertia rows with respect to q. :func:`chunk` advances a fixed
@@ -22,18 +22,13 @@ from typing import Any, NamedTuple
 
 from biplan._compile.kernel import kernel
 from biplan._compile.setup import jax, jnp
-from biplan.model.assembly import (
-    Load,
-    ModelParams,
-    TubeLayout,
-    energy,
-    kkt_jacobian,
-    load_height,
-    residual,
-    sizes,
-)
+from biplan.geometry.layout import TubeLayout
 from biplan.model.inertia import inertia_force, quadrature_points, quadrature_weights
-from biplan.solvers.core import Status, damped
+from biplan.model.lagrangian import kkt_jacobian, residual, sizes
+from biplan.model.params import Load, ModelParams
+from biplan.model.potential import energy, load_height
+from biplan.solvers.core_settings import Status
+from biplan.solvers.strategies import damped
 
 Array = Any
 

@@ -23,9 +23,12 @@ from typing import Any, NamedTuple
 from biplan._compile import linalg
 from biplan._compile.kernel import kernel
 from biplan._compile.setup import jax, jnp
-from biplan.model.assembly import Load, ModelParams, TubeLayout, kkt_jacobian, residual, sizes
-from biplan.solvers.core import Status, damped, residual_norm
+from biplan.geometry.layout import TubeLayout
+from biplan.model.lagrangian import kkt_jacobian, residual, sizes
+from biplan.model.params import Load, ModelParams
+from biplan.solvers.core_settings import Status
 from biplan.solvers.observe import Observation, observe_from_jacobian
+from biplan.solvers.strategies import damped, residual_norm
 
 Array = Any
 
@@ -85,7 +88,7 @@ def corrector(
     max_iterations: Array,
     axis_name: str | None = None,
 ) -> CorrectorOut:
-    """Damped Newton (:func:`biplan.solvers.core.damped`) on the bordered system from
+    """Damped Newton (:func:`biplan.solvers.strategies.damped`) on the bordered system from
     (z0, Λ0); pure, jit/vmap-able. ``axis_name``: the enclosing ``vmap`` axis, if any."""
     n = z0.shape[0]
 

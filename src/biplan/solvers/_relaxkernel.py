@@ -4,7 +4,7 @@ One pure function per seed, ``vmap``-ped and jitted once per tube layout:
 
 1. **Kinematic seed.** Gauss–Newton on r(q) = [g(q); m ⊙ (w̄(q) − t)] from q = 0, where g are
    the guides, w̄ the length-mean elongation of every fold
-   (:func:`biplan.model.assembly.fold_openings`),
+   (:func:`biplan.model.potential.fold_openings`),
    t the target of each fold (0 for closed, the law's open well for open) and m masks the folds
    that take part (bistable ones). The system is square for a fully bistable tube (DOF = number
    of folds); a small Levenberg damping keeps it well posed otherwise. Steps are capped so that
@@ -34,19 +34,12 @@ from typing import Any, NamedTuple
 from biplan._compile import linalg
 from biplan._compile.kernel import kernel
 from biplan._compile.setup import jax, jnp
-from biplan.model.assembly import (
-    AT_REST,
-    ModelParams,
-    TubeLayout,
-    contact_gaps,
-    energy,
-    fold_openings,
-    guide_values,
-    kkt_jacobian_at_rest,
-    residual_at_rest,
-    sizes,
-)
-from biplan.solvers.core import Settings, machine
+from biplan.geometry.layout import TubeLayout
+from biplan.model.lagrangian import kkt_jacobian_at_rest, residual_at_rest, sizes
+from biplan.model.params import AT_REST, ModelParams
+from biplan.model.potential import contact_gaps, energy, fold_openings, guide_values
+from biplan.solvers.core import machine
+from biplan.solvers.core_settings import Settings
 from biplan.solvers.newton import newton_loop
 from biplan.solvers.pool import LANES, refill
 
@@ -218,8 +211,8 @@ def relax_pool(
     ``lanes`` refilled lanes each (:func:`biplan.solvers.pool.refill`), so a seed that needs
     200 descent iterations occupies one lane while the others move on; the polish assembles
     without the load point's terms, which vanish at rest
-    (:func:`biplan.model.assembly.residual_at_rest`). Each seed's result is :func:`relax_seed`'s up
-    to rounding (the test compares them). Rows ≥ n_tasks are padding (status −1).
+    (:func:`biplan.model.lagrangian.residual_at_rest`). Each seed's result is :func:`relax_seed`'s
+    up to rounding (the test compares them). Rows ≥ n_tasks are padding (status −1).
     """
     t_total = target.shape[0]
     nq = layout.n_coordinates

@@ -35,7 +35,7 @@ from biplan.solvers import _pathkernel as pk
 from biplan.solvers.control import Control
 from biplan.solvers.newton import Newton, Solution, solve_equilibrium
 from biplan.solvers.observe import CHUNK, STABILITY_TOL, Observation, observe_batch
-from biplan.solvers.results import Event, Path, PathStats, PathStatus
+from biplan.solvers.path_results import Event, Path, PathStats, PathStatus
 
 __all__ = ["ArcLength", "LoadStepping", "trace_path"]
 

@@ -3,15 +3,16 @@
 :func:`machine` is a Newton iteration on a square system R(z) = 0 given as two functions,
 ``residual(z)`` and ``jacobian(z)``: Armijo backtracking on the merit ½‖R‖², a
 Levenberg–Marquardt fallback with adaptive damping, and the watchdog of free steps, chosen by
-static options; the tolerances and limits are traced (:class:`Settings`), so one compiled
-kernel serves every :class:`~biplan.solvers.Newton`. Its drivers:
+static options; the tolerances and limits are traced
+(:class:`~biplan.solvers.core_settings.Settings`), so one compiled kernel serves every
+:class:`~biplan.solvers.Newton`. Its drivers:
 
 * :func:`iterate` — the whole solve as one ``lax.while_loop`` (equilibrium, relaxation
   polish, design-map load steps, the path corrector and the time step with
   ``levenberg_marquardt=False``, deflated solves);
 * :func:`biplan.solvers.pool.newton_pool` — tasks on refilled ``vmap`` lanes;
-* :func:`chord` — the chord (modified Newton) start of the design map's load steps, iterates
-  with a Jacobian factored once.
+* :mod:`biplan.solvers.strategies` — the damped Newton of the path corrector and the time
+  step, and the chord (modified Newton) start of the design map's load steps.
 
 The systems differ only in their residual: the KKT system of the model
 (:func:`biplan.solvers.newton.newton_machine`), the bordered arclength system
@@ -22,82 +23,16 @@ The systems differ only in their residual: the KKT system of the model
 
 from __future__ import annotations
 
-import enum
 from collections.abc import Callable
 from typing import Any, NamedTuple
 
 from biplan._compile import linalg
 from biplan._compile.setup import jax, jnp
+from biplan.solvers.core_settings import Settings, Status
 
-__all__ = [
-    "LoopState",
-    "Settings",
-    "Status",
-    "chord",
-    "damped",
-    "iterate",
-    "machine",
-    "minimum_norm",
-    "residual_norm",
-]
+__all__ = ["LoopState", "iterate", "machine"]
 
 Array = Any
-
-
-class Status(enum.Enum):
-    """Outcome of a solve."""
-
-    CONVERGED = 0
-    MAX_STEPS = 1
-    LINE_SEARCH_FAILED = 2
-    NONFINITE = 3
-
-    @property
-    def message(self) -> str:
-        return {
-            0: "converged",
-            1: "maximum number of Newton steps reached before the residual tolerance",
-            2: "neither the Newton line search nor Levenberg–Marquardt reduced the residual",
-            3: "the residual or the Newton step became non-finite",
-        }[self.value]
-
-
-class Settings(NamedTuple):
-    """The traced settings of the compiled iteration (float64 scalars;
-    :meth:`biplan.solvers.Newton.settings` builds them).
-
-    Attributes
-    ----------
-    atol : scalar
-        Convergence when ‖R‖∞ < atol (the residual's units).
-    max_steps : scalar
-        Accepted Newton steps allowed.
-    max_backtracks : scalar
-        Step halvings of the line search before Levenberg–Marquardt (or failure).
-    armijo : scalar
-        Sufficient-decrease constant c of the Armijo test.
-    free_steps : scalar
-        Watchdog length (read only by a machine built with ``free_steps=None``).
-    """
-
-    atol: Array
-    max_steps: Array
-    max_backtracks: Array
-    armijo: Array
-    free_steps: Array
-
-    @classmethod
-    def of(
-        cls,
-        atol: Any,
-        max_steps: Any,
-        max_backtracks: Any = 30,
-        armijo: Any = 1e-4,
-        free_steps: Any = 0,
-    ) -> Settings:
-        """Settings from numbers or traced scalars (each as a float64 array)."""
-        values = (atol, max_steps, max_backtracks, armijo, free_steps)
-        return cls(*(jnp.asarray(v, dtype=jnp.float64) for v in values))
 
 
 class LoopState(NamedTuple):
@@ -184,8 +119,9 @@ def machine(
     (:mod:`biplan.analysis.states.deflation`).
 
     ``solve(J, b)`` (static): the Newton direction's linear solve, default LU. With the
-    minimum-norm least-squares solve (:func:`minimum_norm`) the system may be rectangular
-    (fewer equations than unknowns: a Gauss–Newton return to a constraint manifold); then
+    minimum-norm least-squares solve (:func:`~biplan.solvers.strategies.minimum_norm`) the
+    system may be rectangular (fewer equations than unknowns: a Gauss–Newton return to a
+    constraint manifold); then
     ``n_equations`` (static) is the length of R (default: the number of unknowns — given,
     not traced, so that the residual is traced only once).
 
@@ -456,74 +392,3 @@ def iterate(
     ``jac`` is the Jacobian at ``z`` once a pass was accepted (finite ``f``)."""
     init, body, cond, finish = machine(residual, jacobian, settings, **options)
     return finish(jax.lax.while_loop(cond, body, init(z0)))
-
-
-#: Step halvings of :func:`damped` (smallest step fraction 2⁻¹²).
-DAMPED_BACKTRACKS = 12
-
-
-def damped(
-    residual: Callable[[Array], Array],
-    jacobian: Callable[[Array], Array],
-    z0: Array,
-    atol: Array,
-    max_steps: Array,
-    axis_name: str | None = None,
-) -> LoopState:
-    """The plain damped Newton of the path corrector and the time step: :func:`iterate` with
-    Armijo backtracking (c = 1e-4, :data:`DAMPED_BACKTRACKS` halvings), the Jacobian formed at
-    accepted points only (``line_search_loop``) and no Levenberg–Marquardt fallback — a step
-    that fails is cut back by its driver. Needed at the kinks of the piecewise-linear fold laws
-    and of the contact complementarity, where plain Newton can cycle."""
-    settings = Settings.of(atol, max_steps, DAMPED_BACKTRACKS, 1e-4, 0)
-    return iterate(
-        residual,
-        jacobian,
-        z0,
-        settings,
-        line_search_loop=True,
-        levenberg_marquardt=False,
-        axis_name=axis_name,
-    )
-
-
-def residual_norm(state: LoopState) -> Array:
-    """‖R‖∞ at the state's iterate (+∞ when no point was accepted: a non-finite start)."""
-    return jnp.where(jnp.isfinite(state.f), jnp.max(jnp.abs(state.r)), jnp.inf)
-
-
-def minimum_norm(jac: Array, b: Array) -> Array:
-    """The minimum-norm least-squares x of J x ≈ b (pseudo-inverse; singular values below
-    1e-10 of the largest are dropped): the Gauss–Newton step of an underdetermined system."""
-    return linalg.pinv(jac, rtol=1e-10) @ b
-
-
-def chord(
-    residual: Callable[[Array], Array], jac: Array, z: Array, atol: Array, iterations: int
-) -> Array:
-    """Chord (modified Newton) iterates z ← z − J⁻¹ R(z) with the fixed Jacobian ``jac``
-    (factored once), until ‖R‖∞ < atol or ``iterations`` steps (static); returns the iterate
-    of smallest ‖R‖∞ (z itself when every step made it worse or non-finite). A start for
-    :func:`iterate`: an iterate below ``atol`` is accepted by its first pass, which then only
-    evaluates the Jacobian there."""
-    lu, piv = linalg.lu_factor(jac)
-
-    def residual_and_norm(zc: Array) -> tuple[Array, Array]:
-        r = residual(zc)
-        return r, jnp.where(jnp.all(jnp.isfinite(r)), jnp.max(jnp.abs(r)), jnp.inf)
-
-    def cond(c: tuple) -> Array:
-        k, _, _, _, best_norm, last_norm = c
-        return (k < iterations) & (best_norm >= atol) & jnp.isfinite(last_norm)
-
-    def step(c: tuple) -> tuple:
-        k, zc, r, best, best_norm, _ = c
-        dz = linalg.lu_solve(lu, piv, -r)
-        zn = jnp.where(jnp.all(jnp.isfinite(dz)), zc + dz, zc)
-        rn, nn = residual_and_norm(zn)
-        take = nn < best_norm
-        return k + 1, zn, rn, jnp.where(take, zn, best), jnp.where(take, nn, best_norm), nn
-
-    r0, n0 = residual_and_norm(z)
-    init = (jnp.asarray(0), z, r0, z, n0, n0)
-    return jax.lax.while_loop(cond, step, init)[3]

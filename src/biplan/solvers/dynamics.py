@@ -36,7 +36,8 @@ from biplan.solvers import _dynkernel as dk
 from biplan.solvers.control import Control, ControlKind
 from biplan.solvers.newton import Solution, relaxed_reference
 from biplan.solvers.observe import observe_batch
-from biplan.solvers.results import Trajectory, TrajectoryStats, TrajectoryStatus, observables
+from biplan.solvers.results import observables
+from biplan.solvers.trajectory_results import Trajectory, TrajectoryStats, TrajectoryStatus
 
 __all__ = ["BackwardEuler", "GeneralizedAlpha", "LoadHistory", "integrate", "mass_matrix_at"]
 

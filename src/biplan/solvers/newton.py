@@ -17,8 +17,11 @@ import numpy as np
 from biplan._compile.kernel import kernel
 from biplan._compile.setup import jax, jnp
 from biplan._errors import ConfigError, ConvergenceError, check_integer, check_range
-from biplan.model.assembly import Load, Model, StateData, TubeLayout, kernels, state_from_jacobian
-from biplan.solvers.core import LoopState, Settings, Status, machine
+from biplan.geometry.layout import TubeLayout
+from biplan.model.assembly import Load, Model, kernels
+from biplan.model.lagrangian import StateData, state_from_jacobian
+from biplan.solvers.core import LoopState, machine
+from biplan.solvers.core_settings import Settings, Status
 
 __all__ = ["Newton", "Solution", "Status", "relaxed_reference", "solve_equilibrium"]
 

@@ -29,17 +29,10 @@ import numpy as np
 from biplan._compile import linalg
 from biplan._compile.kernel import kernel
 from biplan._compile.setup import jnp
-from biplan.model.assembly import (
-    Load,
-    ModelParams,
-    StateData,
-    TubeLayout,
-    guide_values,
-    phase_fractions,
-    sizes,
-    state_data,
-    state_from_jacobian,
-)
+from biplan.geometry.layout import TubeLayout
+from biplan.model.lagrangian import StateData, sizes, state_data, state_from_jacobian
+from biplan.model.params import Load, ModelParams
+from biplan.model.potential import guide_values, phase_fractions
 
 __all__ = [
     "ACTIVE_GAP",
@@ -129,7 +122,7 @@ def _active_rows(
 def kkt_min_eigenvalue(
     layout: TubeLayout, z: Array, jac: Array, gaps: Array, load: Load, weak_contacts: bool = False
 ) -> Array:
-    """λ_min(H_r) at a state z from its KKT Jacobian ``jac`` (``assembly.kkt_jacobian``).
+    """λ_min(H_r) at a state z from its KKT Jacobian ``jac`` (``lagrangian.kkt_jacobian``).
 
     The Jacobian already holds what the stability test needs (MODEL §11–12): its top-left
     block is K = ∇²_q L, its top-right columns are Gᵀ and −Cᵀ (the guide and contact
@@ -159,9 +152,9 @@ def observe_from_jacobian(
     jac: Array,
     weak_contacts: bool = False,
 ) -> Observation:
-    """:func:`observe` from the KKT Jacobian ``jac`` at z (``assembly.kkt_jacobian``), which
+    """:func:`observe` from the KKT Jacobian ``jac`` at z (``lagrangian.kkt_jacobian``), which
     a solver has at hand at its converged state: no second assembly
-    (:func:`biplan.model.assembly.state_from_jacobian`)."""
+    (:func:`biplan.model.lagrangian.state_from_jacobian`)."""
     data = state_from_jacobian(layout, p, z, load, jac)
     return observation(layout, p, z, load, data, weak_contacts)
 
@@ -174,7 +167,7 @@ def observation(
     data: StateData,
     weak_contacts: bool = False,
 ) -> Observation:
-    """The observables of z under ``load`` from its :class:`~biplan.model.assembly.StateData`."""
+    """The observables of z under ``load`` from its :class:`~biplan.model.lagrangian.StateData`."""
     nq = sizes(layout)[0]
     active, contact, d = _active_rows(layout, z, data.gaps, load, weak_contacts)
     lam_min, dof = min_reduced_eigenvalue(data.lagrangian_hessian, data.constraint_jacobian, active)

@@ -26,8 +26,9 @@ from typing import Any, NamedTuple
 
 from biplan._compile.kernel import kernel
 from biplan._compile.setup import jax, jnp
-from biplan.model.assembly import Load, TubeLayout
-from biplan.solvers.core import Settings
+from biplan.geometry.layout import TubeLayout
+from biplan.model.params import Load
+from biplan.solvers.core_settings import Settings
 from biplan.solvers.newton import newton_machine
 
 __all__ = ["PoolResult", "newton_pool", "refill"]

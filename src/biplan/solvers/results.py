@@ -1,17 +1,17 @@
-"""Frozen results of path following and time integration, and their labelled form.
+"""The labelled form shared by the results of path following and time integration.
 
-:class:`Path` (one entry per equilibrium step) and :class:`Trajectory` (one entry per saved
-time) share the observables of :class:`~biplan.solvers.observe.Observation` and convert to an
-``xarray.Dataset`` with :meth:`to_dataset` (dims ``step`` or ``time``; ``coordinate``, ``fold``,
-``phase``; units in each variable's ``units`` attribute). :func:`biplan.io.results.dataset` adds
-the tube's TOML configuration to the attributes, so that a saved file can be re-opened as a
-model (:func:`biplan.io.results.model_of`).
+:class:`~biplan.solvers.path_results.Path` (one entry per equilibrium step) and
+:class:`~biplan.solvers.trajectory_results.Trajectory` (one entry per saved time) share the
+observables of :class:`~biplan.solvers.observe.Observation` (:data:`OBSERVABLES`, built by
+:func:`observables`) and convert to an ``xarray.Dataset`` with
+:meth:`LabelledResult.to_dataset` (dims ``step`` or ``time``; ``coordinate``, ``fold``,
+``phase``; units in each variable's ``units`` attribute, :data:`UNITS`).
+:func:`biplan.io.results.dataset` adds the tube's TOML configuration to the attributes, so that
+a saved file can be re-opened as a model (:func:`biplan.io.results.model_of`).
 """
 
 from __future__ import annotations
 
-import enum
-from dataclasses import dataclass, field
 from typing import Any
 
 import numpy as np
@@ -21,20 +21,43 @@ from biplan.solvers.control import Control
 from biplan.solvers.observe import STABILITY_TOL, Observation
 
 __all__ = [
+    "ENERGY_BALANCE",
+    "OBSERVABLES",
     "PHASES",
-    "Event",
-    "Path",
-    "PathStats",
-    "PathStatus",
-    "Snap",
-    "Trajectory",
-    "TrajectoryStats",
-    "TrajectoryStatus",
+    "RESPONSE_VARIABLES",
+    "UNITS",
+    "LabelledResult",
     "display_units",
     "fold_names",
+    "observables",
 ]
 
 PHASES = ("closed", "spinodal", "open")
+
+#: The load parameter, load-point and endpoint displacements and energies of each state: the
+#: leading variables of every result and of its CSV form (:data:`biplan.io.results.CSV_COLUMNS`).
+RESPONSE_VARIABLES = (
+    "load_parameter",
+    "force",
+    "displacement",
+    "u_z",
+    "u_r",
+    "theta",
+    "energy",
+    "helical_energy",
+    "circular_energy",
+)
+#: The observables of every result (:func:`observables`), in the order of its variables.
+OBSERVABLES = (
+    *RESPONSE_VARIABLES,
+    "fold_energy",
+    "phase_fraction",
+    "min_eigenvalue",
+    "stable",
+    "constraint_residual",
+)
+#: The energy balance of a trajectory [N·mm], after its observables.
+ENERGY_BALANCE = ("kinetic_energy", "external_work", "dissipated_energy", "total_energy")
 
 UNITS = {
     "force": "N",
@@ -61,152 +84,6 @@ UNITS = {
 }
 
 
-class PathStatus(enum.Enum):
-    """Why a path ended."""
-
-    COMPLETED = 0
-    MAX_STEPS = 1
-    STALLED = 2
-    NONFINITE = 3
-    FULL_CONTACT = 4
-    RETURNED = 5
-    LIMIT_POINT = 6
-    SNAPPED = 7
-    NO_LANDING = 8
-
-    @staticmethod
-    def from_code(code: int) -> PathStatus:
-        return PathStatus(code) if code in (0, 1, 2, 3, 5, 6) else PathStatus.STALLED
-
-    @property
-    def message(self) -> str:
-        return {
-            0: "reached the stop value",
-            1: "stopped at the maximum number of steps",
-            2: (
-                "stalled: the step fell below min_step without a converged corrector "
-                "(a limit point of the controlled quantity under load stepping — use "
-                "ArcLength or dynamics — or the end of the admissible range, e.g. full contact)"
-            ),
-            3: "a state became non-finite",
-            4: (
-                "stopped at full contact: going on would press a closed fold past flat by "
-                "more than the contact compliance allows (the tube is closed solid; "
-                'docs/model.md, "Degenerate contacts")'
-            ),
-            5: (
-                "stopped where the path would have run back past its start value (the load "
-                "would have returned through the start, or changed sign)"
-            ),
-            6: "stopped past the first limit point of the load, as asked",
-            7: "stopped at the first snap, as asked",
-            8: "no stable state found at the snap load (descent at fixed load failed)",
-        }[self.value]
-
-
-class TrajectoryStatus(enum.Enum):
-    """Why a time integration ended."""
-
-    COMPLETED = 0
-    STEP_FAILED = 1
-    NONFINITE = 2
-
-    @property
-    def message(self) -> str:
-        return {
-            0: "reached t_end",
-            1: "a time step did not converge even at the smallest step",
-            2: "the state became non-finite",
-        }[self.value]
-
-
-@dataclass(frozen=True)
-class Event:
-    """A located sign change of λ_min(H_r) along a path."""
-
-    kind: str  # "limit point" or "bifurcation"
-    step: int  # index of the located state in the path
-    load_parameter: float
-    force: float  # [N]
-    displacement: float  # [mm]
-    tolerance: float = float("nan")  # width of the final bracket in Λ
-
-
-@dataclass(frozen=True)
-class Snap:
-    """A jump of a load-controlled response
-    (:func:`biplan.analysis.response.loadcontrol.load_response`).
-
-    At a located loss of stability the tube leaves its branch at the fixed load for a stable
-    state on another branch; the response goes on from there.
-
-    Attributes
-    ----------
-    step : int
-        Index of the last state before the jump (the located loss of stability); the landing
-        state is ``step + 1``.
-    load_parameter : float
-        Λ at the jump: F [N], U [mm] or p [MPa].
-    force : float
-        End force at the jump [N].
-    displacement_before, displacement_after : float
-        Load-point displacement z_p [mm] before and after the jump.
-    critical : str
-        What was lost: ``"limit point"``, ``"bifurcation"`` or ``"loss of stability"`` (not
-        located: the last stable state before the first unstable one).
-    folds : tuple of str
-        The folds whose dominant phase changed in the jump (:func:`fold_names`).
-    landing : str
-        How the landing state was found (``"descent at fixed load"``).
-    tolerance : float
-        Width in Λ of the bracket that located the loss of stability (NaN when not located).
-    """
-
-    step: int
-    load_parameter: float
-    force: float
-    displacement_before: float
-    displacement_after: float
-    critical: str
-    folds: tuple[str, ...]
-    landing: str
-    tolerance: float = float("nan")
-
-    def describe(self, unit: str = "N", scale: float = 1.0) -> str:
-        """One line: where the tube snapped, which folds went and where it landed."""
-        tol = "" if not np.isfinite(self.tolerance) else f" ± {self.tolerance * scale:.1g}"
-        folds = ", ".join(self.folds) if self.folds else "no fold changed phase"
-        return (
-            f"snap at {self.load_parameter * scale:.4f}{tol} {unit} ({self.critical}): "
-            f"z_p {self.displacement_before:.3f} → {self.displacement_after:.3f} mm; "
-            f"{folds} ({self.landing})"
-        )
-
-
-@dataclass(frozen=True)
-class PathStats:
-    """Work done by a path solve."""
-
-    n_steps: int
-    n_cutbacks: int
-    newton_iterations: int
-    n_events: int
-    smallest_step: float
-    largest_step: float
-
-
-@dataclass(frozen=True)
-class TrajectoryStats:
-    """Work done by a time integration."""
-
-    n_steps: int
-    n_rejected: int
-    newton_iterations: int
-    smallest_step: float
-    largest_step: float
-    max_constraint_residual: float  # [mm]
-
-
 def fold_names(model: Model) -> list[str]:
     """'helical 1'…'helical N' then the circular folds 'circular 0|1' (base fold) … (the names
     of :meth:`~biplan.geometry.TubeLayout.fold_name`)."""
@@ -214,6 +91,8 @@ def fold_names(model: Model) -> list[str]:
 
 
 def observables(model: Model, obs: Observation, control_value: np.ndarray) -> dict[str, np.ndarray]:
+    """The :data:`OBSERVABLES` of the states observed in ``obs`` (one row per state), with the
+    load parameter Λ ``control_value`` [N, mm or MPa]: name → array (NumPy)."""
     lam = np.asarray(obs.min_eigenvalue, dtype=float)
     n_h = model.layout.n_modules
     fe = np.asarray(obs.fold_energy)
@@ -252,8 +131,9 @@ def _version() -> str:
         return "0.0.0+unknown"
 
 
-class _Labelled:
-    """Shared conversion to an xarray Dataset."""
+class LabelledResult:
+    """The conversion to an ``xarray.Dataset`` shared by :class:`~biplan.solvers.path_results.Path`
+    and :class:`~biplan.solvers.trajectory_results.Trajectory` (see the module docstring)."""
 
     model: Model
     control: Control
@@ -308,251 +188,3 @@ class _Labelled:
         }
         ds = xr.Dataset(data, coords=coords, attrs=attrs)
         return ds
-
-
-@dataclass(frozen=True)
-class Path(_Labelled):
-    """An equilibrium path (one entry per accepted step; located events inserted).
-
-    Attributes
-    ----------
-    load_parameter : ndarray
-        Λ at each state: F [N], U [mm] or p [MPa] (``control.kind``).
-    force, displacement, u_z, u_r, theta, energy : ndarray
-        End force [N], load-point displacement [mm], endpoint [mm, mm, rad], Π [N·mm].
-    fold_energy : ndarray (step, fold)
-    phase_fraction : ndarray (step, fold, 3)
-        Closed, spinodal, open fraction of each fold's length.
-    min_eigenvalue : ndarray
-        λ_min(H_r) (+inf when contact-locked); ``stable`` where > 1e-8.
-    is_event : ndarray of bool
-        States inserted at located limit points / bifurcations.
-    events : tuple of Event
-    direction : ndarray
-        Λ-component of the path tangent (changes sign at limit points).
-    q, z : ndarray
-        Coordinates (step, n_q) and packed unknowns (step, n_z).
-    status : PathStatus
-    stats : PathStats
-    segment : ndarray of int, optional
-        Stable branch of each state of a load-controlled response (0 before the first snap,
-        1 after it, …); None for a plain path.
-    snaps : tuple of Snap
-        The jumps between those branches.
-    """
-
-    model: Model = field(repr=False)
-    control: Control
-    method: str
-    load_parameter: np.ndarray
-    force: np.ndarray
-    displacement: np.ndarray
-    u_z: np.ndarray
-    u_r: np.ndarray
-    theta: np.ndarray
-    energy: np.ndarray
-    helical_energy: np.ndarray
-    circular_energy: np.ndarray
-    fold_energy: np.ndarray
-    phase_fraction: np.ndarray
-    min_eigenvalue: np.ndarray
-    stable: np.ndarray
-    constraint_residual: np.ndarray
-    is_event: np.ndarray
-    events: tuple[Event, ...]
-    direction: np.ndarray
-    q: np.ndarray = field(repr=False)
-    z: np.ndarray = field(repr=False)
-    status: PathStatus = PathStatus.COMPLETED
-    stats: PathStats | None = None
-    segment: np.ndarray | None = field(default=None, repr=False)
-    snaps: tuple[Snap, ...] = ()
-
-    @property
-    def switched(self) -> np.ndarray:
-        """True at the landing state of each snap (the first state of a new branch)."""
-        out = np.zeros(self.n_steps, dtype=bool)
-        if self.segment is not None and self.n_steps > 1:
-            out[1:] = np.diff(self.segment) != 0
-        return out
-
-    @classmethod
-    def build(
-        cls,
-        *,
-        model: Model,
-        control: Control,
-        method: str,
-        z: np.ndarray,
-        load_parameter: np.ndarray,
-        observation: Observation,
-        event_flags: np.ndarray,
-        events: tuple[Event, ...],
-        status: PathStatus,
-        stats: PathStats,
-        direction: np.ndarray,
-    ) -> Path:
-        common: dict[str, Any] = observables(model, observation, load_parameter)
-        return cls(
-            model=model,
-            control=control,
-            method=method,
-            is_event=np.asarray(event_flags, bool),
-            events=events,
-            direction=np.asarray(direction, float),
-            q=np.asarray(z)[:, : model.n_coordinates],
-            z=np.asarray(z),
-            status=status,
-            stats=stats,
-            **common,
-        )
-
-    @property
-    def n_steps(self) -> int:
-        return len(self.load_parameter)
-
-    @property
-    def completed(self) -> bool:
-        return self.status is PathStatus.COMPLETED
-
-    @property
-    def message(self) -> str:
-        s = self.stats
-        extra = f"; {s.n_steps} steps, {s.n_cutbacks} cut-backs" if s else ""
-        return f"{self.status.message}{extra}"
-
-    @property
-    def limit_points(self) -> tuple[Event, ...]:
-        return tuple(e for e in self.events if e.kind == "limit point")
-
-    def _variables(self) -> dict[str, np.ndarray]:
-        names = [
-            "load_parameter",
-            "force",
-            "displacement",
-            "u_z",
-            "u_r",
-            "theta",
-            "energy",
-            "helical_energy",
-            "circular_energy",
-            "fold_energy",
-            "phase_fraction",
-            "min_eigenvalue",
-            "stable",
-            "constraint_residual",
-            "q",
-        ]
-        out = {n: getattr(self, n) for n in names}
-        out["limit_point"] = self.is_event
-        if self.segment is not None:
-            out["segment"] = np.asarray(self.segment, dtype=np.int64)
-            out["switched"] = self.switched
-        return out
-
-    def _attrs(self) -> dict[str, Any]:
-        s = self.stats
-        scale, unit = display_units(self.control)
-        attrs = {
-            "method": self.method,
-            "status": self.status.name,
-            "message": self.message,
-            "n_cutbacks": s.n_cutbacks if s else 0,
-            "events": "; ".join(
-                f"{e.kind} at step {e.step}: F = {e.force:.6g} N, z_p = {e.displacement:.6g} mm"
-                for e in self.events
-            ),
-        }
-        if self.segment is not None:
-            attrs["snaps"] = "; ".join(
-                f"step {p.step}: " + p.describe(unit, scale) for p in self.snaps
-            )
-        return attrs
-
-
-@dataclass(frozen=True)
-class Trajectory(_Labelled):
-    """A time history (one entry per saved time).
-
-    Attributes
-    ----------
-    time : ndarray [s]
-    force, displacement, u_z, u_r, theta, energy, … : as for :class:`Path`
-    kinetic_energy, external_work, dissipated_energy : ndarray [N·mm]
-    total_energy : ndarray [N·mm]
-        Kinetic + strain − external work + dissipated (conserved by an exact integrator).
-    q, velocity : ndarray (time, n_q)
-    status : TrajectoryStatus
-    stats : TrajectoryStats
-    """
-
-    model: Model = field(repr=False)
-    control: Control
-    scheme: str
-    time: np.ndarray
-    load_parameter: np.ndarray
-    force: np.ndarray
-    displacement: np.ndarray
-    u_z: np.ndarray
-    u_r: np.ndarray
-    theta: np.ndarray
-    energy: np.ndarray
-    helical_energy: np.ndarray
-    circular_energy: np.ndarray
-    fold_energy: np.ndarray
-    phase_fraction: np.ndarray
-    min_eigenvalue: np.ndarray
-    stable: np.ndarray
-    constraint_residual: np.ndarray
-    kinetic_energy: np.ndarray
-    external_work: np.ndarray
-    dissipated_energy: np.ndarray
-    total_energy: np.ndarray
-    q: np.ndarray = field(repr=False)
-    velocity: np.ndarray = field(repr=False)
-    z: np.ndarray = field(repr=False)
-    status: TrajectoryStatus = TrajectoryStatus.COMPLETED
-    stats: TrajectoryStats | None = None
-    _dim: str = field(default="time", repr=False)
-
-    @property
-    def completed(self) -> bool:
-        return self.status is TrajectoryStatus.COMPLETED
-
-    @property
-    def message(self) -> str:
-        s = self.stats
-        extra = f"; {s.n_steps} steps, {s.n_rejected} rejected" if s else ""
-        return f"{self.status.message}{extra}"
-
-    def _variables(self) -> dict[str, np.ndarray]:
-        names = [
-            "load_parameter",
-            "force",
-            "displacement",
-            "u_z",
-            "u_r",
-            "theta",
-            "energy",
-            "helical_energy",
-            "circular_energy",
-            "fold_energy",
-            "phase_fraction",
-            "min_eigenvalue",
-            "stable",
-            "constraint_residual",
-            "kinetic_energy",
-            "external_work",
-            "dissipated_energy",
-            "total_energy",
-            "q",
-            "velocity",
-        ]
-        return {n: getattr(self, n) for n in names}
-
-    def _attrs(self) -> dict[str, Any]:
-        return {"scheme": self.scheme, "status": self.status.name, "message": self.message}
-
-    def to_dataset(self) -> Any:
-        ds = super().to_dataset()
-        return ds.assign_coords(time=("time", np.asarray(self.time), {"units": "s"}))

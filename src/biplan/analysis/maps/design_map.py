@@ -35,20 +35,15 @@ from biplan._compile.setup import jax, jnp
 from biplan._errors import ConfigError, check_integer, check_range
 from biplan.analysis.response.ramp_dynamics import continue_ramp
 from biplan.geometry import chain
-from biplan.model.assembly import (
-    Load,
-    Model,
-    TubeLayout,
-    contact_gaps,
-    kernels,
-    kkt_jacobian,
-    load_height,
-    residual,
-)
+from biplan.geometry.layout import TubeLayout
+from biplan.model.assembly import Load, Model, kernels
+from biplan.model.lagrangian import kkt_jacobian, residual
+from biplan.model.potential import contact_gaps, load_height
 from biplan.model.tube import Tube
-from biplan.solvers.core import Settings, chord
+from biplan.solvers.core_settings import Settings
 from biplan.solvers.newton import Newton, Status, newton_loop, solve_equilibrium
 from biplan.solvers.observe import kkt_min_eigenvalue, observe_batch
+from biplan.solvers.strategies import chord
 
 __all__ = ["ForceRamp", "ResponseEvaluator", "ramp_batches", "response_point", "stack_params"]
 
@@ -170,7 +165,7 @@ CHORD_ITERATIONS = 8
 
 @kernel("chord")
 def _chord(layout: TubeLayout, p: Any, z: Array, jac: Array, load: Load, atol: Array) -> Array:
-    """The start of a load step: :func:`biplan.solvers.core.chord` at ``load`` with the
+    """The start of a load step: :func:`biplan.solvers.strategies.chord` at ``load`` with the
     previous equilibrium's KKT Jacobian ``jac`` (at most :data:`CHORD_ITERATIONS` steps)."""
     return chord(lambda zc: residual(layout, p, zc, load), jac, z, atol, CHORD_ITERATIONS)
 

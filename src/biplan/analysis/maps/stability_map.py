@@ -4,14 +4,14 @@ At every grid point (prescribed normalised end displacement U/l₀ and design pa
 default C at b = 0.58) the distinct equilibria are searched for and classified:
 
 1. **Seeds.** Newton (displacement control, U = value · l₀ [mm]) from a fixed set of starts
-   (:func:`seeds`): by default one per subset of the circular folds, the displacement shared
-   equally by the open folds of the subset (``seeding = "subsets"``: 2^N_c starts, 64 for the
-   semi-bistable design). The circular folds are in series and nearly equivalent, so every
-   combination of k folds on their third branch is a stable equilibrium where U allows k
-   open folds: C(N_c, k) of them (15 for two open folds of six). The 3 N_c − 2 patterns of
-   earlier versions (all closed, shared by all, one per fold, the k lowest and the k highest
-   folds; ``seeding = "patterns"``, used past ``max_subset_folds`` folds) found only the
-   combinations next to the base or the free end.
+   (:func:`~biplan.analysis.maps.stability_seeds.seeds`): by default one per subset of the
+   circular folds, the displacement shared equally by the open folds of the subset
+   (``seeding = "subsets"``: 2^N_c starts, 64 for the semi-bistable design). The circular
+   folds are in series and nearly equivalent, so every combination of k folds on their third
+   branch is a stable equilibrium where U allows k open folds: C(N_c, k) of them (15 for two
+   open folds of six). The 3 N_c − 2 patterns of earlier versions (all closed, shared by all,
+   one per fold, the k lowest and the k highest folds; ``seeding = "patterns"``, used past
+   ``max_subset_folds`` folds) found only the combinations next to the base or the free end.
    By default these fixed seeds run only at points at most ``seed_spacing`` = 0.04 apart in
    U/l₀ along a row (every fourth point of a grid with ΔU/l₀ = 0.01; every point of a coarser
    grid), the first and the last.
@@ -47,7 +47,6 @@ should not straddle chunks (the CLI sizes the chunks to whole rows, at least 128
 
 from __future__ import annotations
 
-import itertools
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
 from typing import Any
@@ -56,17 +55,18 @@ import numpy as np
 
 from biplan._compile.kernel import kernel
 from biplan._compile.setup import jax, jnp
-from biplan._errors import ConfigError, check_integer, check_range
 from biplan.analysis.maps.design_map import stack_params
-from biplan.model.assembly import Load, Model, TubeLayout
+from biplan.analysis.maps.stability_search import Solutions, StabilitySearch, same_equilibrium
+from biplan.analysis.maps.stability_seeds import max_seeds, pushing, seeds
+from biplan.geometry.layout import TubeLayout
+from biplan.model.assembly import Load, Model
 from biplan.model.tube import Tube
 from biplan.solvers.newton import Newton, Status
-from biplan.solvers.observe import ACTIVE_GAP, STABILITY_TOL, observe
+from biplan.solvers.observe import STABILITY_TOL, observe
 from biplan.solvers.pool import newton_pool
 
 __all__ = [
     "StabilityEvaluator",
-    "StabilitySearch",
     "points_per_kernel",
     "stability_chunk_size",
     "transition_band",
@@ -74,113 +74,8 @@ __all__ = [
 
 Array = Any
 
-#: Continuation modes of :class:`StabilitySearch`.
-CONTINUATIONS = ("march", "neighbours")
-
-#: Seedings of :class:`StabilitySearch` (:func:`seeds`).
-SEEDINGS = ("subsets", "patterns")
-
-#: Largest ``StabilitySearch.max_subset_folds``: 2^12 = 4096 seeds per seeded point.
-MAX_SUBSET_FOLDS = 12
-
 #: Regime codes of ``regime``.
 REGIMES = {"none": 0, "monostable": 1, "bistable": 2, "multistable": 3}
-
-
-@dataclass(frozen=True)
-class StabilitySearch:
-    """Settings of the equilibrium search at one map point.
-
-    Parameters
-    ----------
-    max_equilibria : int
-        Length of the padded ``equilibrium`` dimension (the lowest-energy distinct equilibria
-        are kept; the counts include all), ≥ 1.
-    distinct_tol : float
-        Two solutions are the same equilibrium when no coordinate differs by more [mm, rad].
-    atol : float
-        Newton tolerance on ‖r‖∞ (N, mm).
-    max_steps : int
-        Newton iterations per seed.
-    max_backtracks : int
-        Line-search halvings per Newton step. A seed costs at most
-        max_steps · (max_backtracks + 1) residual evaluations; most converge in 6–8, the rest
-        are seeds far from any equilibrium, which should fail fast.
-    solve_batch : int
-        Lanes of the solve pool (:func:`biplan.solvers.pool.newton_pool`: solves in flight,
-        a finished lane takes the next seed) for the fixed seeds, ≥ 1.
-    continuation : {"march", "neighbours"}
-        "march" (default): the stable equilibria are continued point by point along the
-        displacement axis, forward through each row and then backward from the equilibria
-        that the forward sweep did not reach; "neighbours": one continuation pass from the
-        stable equilibria of the two neighbouring points (the previous default, with
-        the fixed seeds at every point).
-    seed_spacing : float
-        Largest distance in U/l₀ between two points of a row that get the fixed seeds (the
-        first and last point always do; the march carries the branches to the points in
-        between; a grid coarser than this seeds every point, and so does 0). Default 0.04:
-        every fourth point of a grid with ΔU/l₀ = 0.01. With "neighbours" use 0 (points
-        without seeds would see only their neighbours' states). A point where nothing
-        converged gets the fixed seeds after the march.
-    march_lanes : int
-        Lanes of the pool for the continuation solves, ≥ 1. Default 16, as ``solve_batch``:
-        with every subset seeded a march step continues 15–35 equilibria per row, enough
-        to fill 16 lanes, and one lane count compiles one pool kernel per layout (a 4-row
-        chunk of the 40 × 40 map: 21 s with 16 lanes, 24 s with 8).
-    continuation_steps : int
-        Newton iterations per continuation solve (measured on an 8 × 40 check grid: 6 lose
-        equilibria at 30 of the 320 points, 10 at 13, 15 at none).
-    seeding : {"subsets", "patterns"}
-        The fixed seeds (:func:`seeds`). "subsets" (default): one per subset of the circular
-        folds, 2^N_c, for tubes with at most ``max_subset_folds`` circular folds (more use
-        "patterns"); "patterns": the 3 N_c − 2 patterns of earlier versions, which find
-        only the combinations of open folds next to the base or the free end.
-    max_subset_folds : int
-        Most circular folds for which "subsets" seeds every subset (2^8 = 256 seeds), from 1
-        to :data:`MAX_SUBSET_FOLDS` = 12.
-    """
-
-    max_equilibria: int = 8
-    distinct_tol: float = 1e-4
-    atol: float = 1e-9
-    max_steps: int = 15
-    max_backtracks: int = 4
-    solve_batch: int = 16
-    continuation: str = "march"
-    seed_spacing: float = 0.04
-    march_lanes: int = 16
-    continuation_steps: int = 15
-    seeding: str = "subsets"
-    max_subset_folds: int = 8
-
-    def __post_init__(self) -> None:
-        names = ("max_equilibria", "solve_batch", "max_steps", "max_backtracks", "march_lanes",
-                 "continuation_steps", "max_subset_folds")  # fmt: skip
-        for name in names:
-            object.__setattr__(
-                self, name, check_integer(f"search.{name}", getattr(self, name), low=1)
-            )
-        if self.continuation not in CONTINUATIONS:
-            raise ConfigError("search.continuation", self.continuation, f"one of {CONTINUATIONS}")
-        if self.seeding not in SEEDINGS:
-            raise ConfigError("search.seeding", self.seeding, f"one of {SEEDINGS}")
-        if self.max_subset_folds > MAX_SUBSET_FOLDS:
-            valid = f"an integer from 1 to {MAX_SUBSET_FOLDS} (2^N seeds per point)"
-            raise ConfigError("search.max_subset_folds", self.max_subset_folds, valid)
-        check_range("search.distinct_tol", self.distinct_tol, low=0.0)
-        check_range("search.seed_spacing", self.seed_spacing, low=0.0, low_open=False)
-        self.newton()
-
-    def seed_kind(self, n_circular: int) -> str:
-        """The seeding used for a tube with ``n_circular`` circular folds."""
-        if self.seeding == "subsets" and n_circular <= self.max_subset_folds:
-            return "subsets"
-        return "patterns"
-
-    def newton(self, continuation: bool = False) -> Newton:
-        """Newton settings of the fixed seeds, or of the continuation seeds."""
-        steps = self.continuation_steps if continuation else self.max_steps
-        return Newton(atol=self.atol, max_steps=steps, max_backtracks=self.max_backtracks)
 
 
 @kernel("stability_observe", in_axes=(0, 0, 0))
@@ -204,118 +99,11 @@ def points_per_kernel(n_points: int) -> int:
     return max(8, 1 << (max(int(n_points), 1) - 1).bit_length())
 
 
-#: Contact multiplier [N/mm] of the closed contacts of a "pressed" seed (:func:`seeds`).
-PRESS = 1e-3
-
-
-def pushing(tube: Tube, u: np.ndarray) -> np.ndarray:
-    """(len(u), N_c, N_c) booleans: whether circular fold i pushes (law force < 0) when k + 1
-    folds share the displacement u [mm] equally (opening u / (k + 1)); one law evaluation
-    per distinct law."""
-    u = np.asarray(u, dtype=float).reshape(-1)
-    n_circ = tube.n_circular
-    ws = u[:, None] / np.arange(1, n_circ + 1)[None, :]
-    forces: dict[Any, np.ndarray] = {}
-    for law in tube.circular_laws:
-        if law not in forces:
-            forces[law] = np.asarray(law.force(ws)) < 0.0
-    return np.stack([forces[law] for law in tube.circular_laws], axis=1)
-
-
-def seeds(
-    model: Model,
-    u: float,
-    kind: str = "subsets",
-    pressed_only: bool = False,
-    pushes: np.ndarray | None = None,
-) -> np.ndarray:
-    """Packed starting vectors (n_seeds, n_z) for prescribed displacement ``u`` [mm].
-
-    ``kind`` "subsets": one start per subset of the circular folds (2^N_c, all folds closed
-    first), the displacement shared equally by the open folds of the subset — the fold states
-    of the tube's phase-1/phase-2 combinations, every one of which can be a stable
-    equilibrium (the circular folds are in series and nearly equivalent; docs/maps.md).
-    "patterns": the 3 N_c − 2 patterns of earlier versions (all closed, shared by all, one
-    per fold, the k lowest and the k highest folds), which miss most combinations of two or
-    more open folds.
-
-    A start whose open folds all *push* (law force < 0 at their opening: between a
-    bistable law's unloaded open opening and its second zero) is added a second time,
-    *pressed*: with multiplier :data:`PRESS` on every closed contact. Such a state can be an
-    equilibrium held by the contacts alone — the tube in compression, every other fold pressed
-    shut, no free direction left (a contact-locked state, stable by MODEL.md §12). Newton from
-    zero multipliers treats a closed gap and its multiplier alike and opens the gaps, so it
-    leaves such states; from the pressed start it keeps the gaps shut and finds the
-    multipliers (docs/maps.md, "contact-locked states"). ``pressed_only``: only these
-    (possibly none: shape (0, n_z)). ``pushes``: :func:`pushing` of this ``u`` (computed
-    when not given).
-    """
-    nq = model.n_coordinates
-    n_circ = model.tube.n_circular
-    first = nq - n_circ
-    patterns: list[np.ndarray]
-    if kind == "subsets":
-        patterns = [
-            np.isin(np.arange(n_circ), c).astype(float)
-            for k in range(n_circ + 1)
-            for c in itertools.combinations(range(n_circ), k)
-        ]
-    else:
-        patterns = [np.zeros(n_circ), np.ones(n_circ)]
-        patterns += [np.eye(n_circ)[i] for i in range(n_circ)]
-        for k in range(2, n_circ):
-            patterns += [np.r_[np.ones(k), np.zeros(n_circ - k)]]
-            patterns += [np.r_[np.zeros(n_circ - k), np.ones(k)]]
-    if pushes is None:
-        pushes = pushing(model.tube, np.array([u]))[0]
-    lam_c = slice(nq + model.n_guides, nq + model.n_guides + model.n_contacts)
-    n_z = lam_c.stop + 1
-    plain, pressed = [], []
-    for pat in patterns:
-        k = int(pat.sum())
-        push = k > 0 and bool(pushes[pat > 0, k - 1].all())
-        if pressed_only and not push:
-            continue
-        z = np.zeros(n_z)
-        if k > 0:
-            z[first:nq] = pat * u / k
-        plain.append(z)
-        if push:
-            zp = z.copy()
-            zp[lam_c] = np.where(model.contact_gaps(z[:nq]) < ACTIVE_GAP, PRESS, 0.0)
-            pressed.append(zp)
-    out = pressed if pressed_only else plain + pressed
-    return np.asarray(out).reshape(-1, n_z)
-
-
-def max_seeds(n_circular: int, kind: str) -> int:
-    """Most starts :func:`seeds` returns for ``n_circular`` folds (pressed ones included)."""
-    n = 2**n_circular if kind == "subsets" else 3 * n_circular - 2
-    return 2 * n
-
-
-def _same(others: Any, z: np.ndarray, nq: int, tol: float) -> np.ndarray:
-    """Whether each of ``others`` (k, n_z; may be empty) is the equilibrium ``z``: closer than
-    ``tol`` in every coordinate q (multipliers are not compared). The one closeness test of
-    the search (distinct equilibria, shared observations, the backward sweep)."""
-    rows = np.asarray(others, dtype=float).reshape(-1, z.shape[-1])
-    return np.max(np.abs(rows[:, :nq] - z[:nq]), axis=1) <= tol
-
-
-def _distinct(z: np.ndarray, energy: np.ndarray, nq: int, tol: float) -> list[int]:
-    """Indices of distinct solutions (lowest energy first)."""
-    keep: list[int] = []
-    for i in np.argsort(energy, kind="stable"):
-        if not _same(z[keep], z[i], nq, tol).any():
-            keep.append(int(i))
-    return keep
-
-
 @dataclass(frozen=True)
 class StabilityEvaluator:
     """Distinct equilibria and their stability at every grid point (see module docstring)."""
 
-    search: StabilitySearch = StabilitySearch()
+    search: StabilitySearch = StabilitySearch()  # noqa: RUF009 (a frozen dataclass)
     name: str = "stability_count"
     load_axes: tuple[str, ...] = ("displacement",)
 
@@ -398,7 +186,7 @@ class StabilityEvaluator:
         for j in np.unique(rows[ok]):
             sel = np.flatnonzero(ok & (rows == j))
             for a, i in enumerate(sel):
-                near = _same(z[sel[:a]], z[i], nq, self.search.distinct_tol)
+                near = same_equilibrium(z[sel[:a]], z[i], nq, self.search.distinct_tol)
                 if near.any():
                     rep[i] = rep[sel[:a][near][0]]
         idx = np.flatnonzero(ok & (rep == np.arange(n)))
@@ -456,7 +244,7 @@ class StabilityEvaluator:
             float(ld["displacement"]) * t.initial_length for ld, t in zip(loads, tubes, strict=True)
         ]
         nq = models[0].n_coordinates
-        acc = _Solutions(len(models), nq, s.distinct_tol)
+        acc = Solutions(len(models), nq, s.distinct_tol)
 
         def solve(rows: list[int], z0: list[np.ndarray], cont: bool) -> list[np.ndarray]:
             r = np.asarray(rows, dtype=int)
@@ -528,7 +316,9 @@ class StabilityEvaluator:
             for row in rows_of:
                 if pos < len(row) - 1:
                     for zs in acc.stable(row[pos + 1]):
-                        if not _same(reached[row[pos + 1]], zs, nq, s.distinct_tol).any():
+                        if not same_equilibrium(
+                            reached[row[pos + 1]], zs, nq, s.distinct_tol
+                        ).any():
                             rows.append(row[pos])
                             z0.append(zs)
             if rows:
@@ -569,50 +359,6 @@ class StabilityEvaluator:
         out["u_r"][i, :k] = f["u_r"][:k] / l0
         w = min(nq, out["q"].shape[2])
         out["q"][i, :k, :w] = f["z"][:k, :w]
-
-
-class _Solutions:
-    """The converged solutions found so far at every point of a group, and their distinct
-    equilibria (lowest energy first)."""
-
-    def __init__(self, n_points: int, nq: int, tol: float) -> None:
-        self.n_points, self.nq, self.tol = n_points, nq, tol
-        self.rows: list[np.ndarray] = []
-        self.sols: list[list[np.ndarray]] = []
-        self._cache: dict[int, dict[str, Any]] = {}
-
-    def add(self, rows: np.ndarray, sols: list[np.ndarray]) -> None:
-        self.rows.append(rows)
-        self.sols.append(sols)
-        self._cache.clear()
-
-    def point(self, j: int) -> dict[str, Any]:
-        if j not in self._cache:
-            sel = [
-                np.flatnonzero((r == j) & s[1]) for r, s in zip(self.rows, self.sols, strict=True)
-            ]
-            z, energy, lam, uz, ur, force = (
-                np.concatenate([s[k][i] for s, i in zip(self.sols, sel, strict=True)])
-                for k in (0, 2, 3, 4, 5, 6)
-            )
-            keep = _distinct(z, energy, self.nq, self.tol)
-            stable = lam[keep] > STABILITY_TOL
-            self._cache[j] = {
-                "z": z[keep], "energy": energy[keep], "lam": lam[keep], "u_z": uz[keep],
-                "u_r": ur[keep], "force": force[keep], "stable": stable,
-                "z_stable": z[keep][stable],
-            }  # fmt: skip
-        return self._cache[j]
-
-    def any(self, j: int) -> bool:
-        """Whether any solve converged at point ``j``."""
-        return len(self.point(j)["energy"]) > 0
-
-    def stable(self, j: int) -> np.ndarray:
-        return self.point(j)["z_stable"]
-
-    def collect(self) -> list[dict[str, Any]]:
-        return [self.point(j) for j in range(self.n_points)]
 
 
 def stability_chunk_size(n_displacements: int, min_points: int = 128) -> int:

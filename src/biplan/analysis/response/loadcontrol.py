@@ -20,8 +20,8 @@ on from there. :func:`load_response` reproduces that sequence:
    same load: a cascade, recorded as successive snaps;
 4. from there, step 1 again, until the stop value is reached.
 
-The result is one :class:`~biplan.solvers.results.Path` of stable states with ``segment``
-(branch index per state) and ``snaps`` (:class:`~biplan.solvers.results.Snap`: where, at what
+The result is one :class:`~biplan.solvers.path_results.Path` of stable states with ``segment``
+(branch index per state) and ``snaps`` (:class:`~biplan.solvers.path_results.Snap`: where, at what
 load, which folds went, how the landing was found). The equilibrium path through unstable
 states, a numerical device, is :func:`~biplan.solvers.continuation.trace_path` itself.
 """
@@ -40,7 +40,8 @@ from biplan.model.assembly import Model
 from biplan.solvers.continuation import ArcLength, trace_path
 from biplan.solvers.control import Control
 from biplan.solvers.newton import Newton, Solution, solve_equilibrium
-from biplan.solvers.results import Path, PathStats, PathStatus, Snap, fold_names
+from biplan.solvers.path_results import Path, PathStats, PathStatus, Snap
+from biplan.solvers.results import fold_names
 
 __all__ = [
     "LANDING",

@@ -29,7 +29,7 @@ from biplan.model.assembly import Load, Model
 from biplan.solvers.control import ControlKind
 from biplan.solvers.dynamics import BackwardEuler, GeneralizedAlpha, LoadHistory, integrate
 from biplan.solvers.newton import Solution, Status, make_solution
-from biplan.solvers.results import Trajectory, TrajectoryStatus
+from biplan.solvers.trajectory_results import Trajectory, TrajectoryStatus
 
 __all__ = ["continue_ramp"]
 

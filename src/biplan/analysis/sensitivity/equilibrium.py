@@ -1,13 +1,13 @@
 """Sensitivities of an equilibrium to the design, by implicit differentiation of the KKT system.
 
 At a converged state z = [q, λ, λ_∂, μ] the residual vanishes, r(z, v) = 0 (MODEL §11,
-:func:`biplan.model.assembly.residual`), for the design parameters v (:mod:`._parameters`: R, l, β
+:func:`biplan.model.lagrangian.residual`), for the design parameters v (:mod:`._parameters`: R, l, β
 or b, every law coefficient and transition, the load). The implicit function theorem gives
 the change of the state with the design and, for an observable y(z, v), its total derivative::
 
     J dz/dv = −∂r/∂v,        dy/dv = ∂y/∂v + ∂y/∂z · dz/dv = ∂y/∂v − ψᵀ ∂r/∂v,   Jᵀ ψ = ∂y/∂zᵀ
 
-with J = ∂r/∂z the KKT Jacobian (:func:`biplan.model.assembly.kkt_jacobian`). ∂r/∂v, ∂y/∂z and
+with J = ∂r/∂z the KKT Jacobian (:func:`biplan.model.lagrangian.kkt_jacobian`). ∂r/∂v, ∂y/∂z and
 ∂y/∂v come from JAX autodiff through the traced model parameters; the adjoint form (one solve
 with Jᵀ per observable) is used when there are fewer observables than parameters, the direct
 form (one solve with J per parameter) otherwise. The contact rows are the smoothed
@@ -54,15 +54,10 @@ from biplan.analysis.sensitivity.parameters import (
 )
 from biplan.analysis.stability import active_contacts, null_space
 from biplan.geometry.chain import endpoint
-from biplan.model.assembly import (
-    Model,
-    TubeLayout,
-    curvature,
-    energy,
-    kkt_jacobian,
-    load_height,
-    residual,
-)
+from biplan.geometry.layout import TubeLayout
+from biplan.model.assembly import Model
+from biplan.model.lagrangian import curvature, kkt_jacobian, residual
+from biplan.model.potential import energy, load_height
 from biplan.solvers.newton import Solution
 
 __all__ = [

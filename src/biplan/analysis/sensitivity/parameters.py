@@ -3,8 +3,8 @@
 :func:`design_parameters` lists the scalars a design is made of — R, l, β (or b), every
 coefficient and transition of every law set, per-fold laws where the tube has them, and the
 load — and :class:`ParameterSet` maps a vector of their values back to the traced model
-parameters (:class:`~biplan.model.assembly.ModelParams`) and the
-:class:`~biplan.model.assembly.Load`.
+parameters (:class:`~biplan.model.params.ModelParams`) and the
+:class:`~biplan.model.params.Load`.
 The map is a JAX function, so the residual and the observables can be differentiated with
 respect to the design by autodiff, and it is the same map a finite-difference check re-solves
 with (:meth:`ParameterSet.model_at`).
@@ -38,7 +38,8 @@ from biplan._compile.setup import jnp
 from biplan._errors import ConfigError
 from biplan.geometry import Development, chain
 from biplan.laws import LinearLaw, TransitionReading, TrilinearLaw
-from biplan.model.assembly import Load, Model, ModelParams
+from biplan.model.assembly import Load, Model
+from biplan.model.params import ModelParams
 from biplan.model.tube import Tube
 
 __all__ = ["AngleParameter", "Parameter", "ParameterSet", "design_parameters"]

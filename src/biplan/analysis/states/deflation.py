@@ -29,8 +29,10 @@ from biplan._compile.kernel import kernel
 from biplan._compile.setup import jax, jnp
 from biplan._errors import ConfigError, check_integer, check_range
 from biplan.analysis.stability import classify
-from biplan.model.assembly import Load, Model, TubeLayout, kernels
-from biplan.solvers.core import Settings, Status, iterate
+from biplan.geometry.layout import TubeLayout
+from biplan.model.assembly import Load, Model, kernels
+from biplan.solvers.core import iterate
+from biplan.solvers.core_settings import Settings, Status
 from biplan.solvers.newton import make_solution
 from biplan.solvers.observe import observe_batch
 

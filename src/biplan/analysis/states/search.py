@@ -39,7 +39,8 @@ from biplan.analysis.states.catalogue import (
 )
 from biplan.analysis.states.labels import bistable_folds, bits_to_label, label_to_bits
 from biplan.analysis.states.seeding import Search, fold_vector_index, relax_seeds, seed_targets
-from biplan.model.assembly import Load, Model, phase_fractions
+from biplan.model.assembly import Load, Model
+from biplan.model.potential import phase_fractions
 from biplan.solvers.newton import Solution, Status, solve_equilibrium
 
 if TYPE_CHECKING:

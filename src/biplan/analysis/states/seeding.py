@@ -36,7 +36,7 @@ from biplan.geometry import FoldRef
 from biplan.model.assembly import Load, Model
 from biplan.model.tube import Tube
 from biplan.solvers._relaxkernel import relax_pool
-from biplan.solvers.core import Status
+from biplan.solvers.core_settings import Status
 from biplan.solvers.observe import observe_batch
 
 if TYPE_CHECKING:

@@ -210,7 +210,7 @@ def local_terms(
     ----------
     layout, p
         The tube layout and the model's traced parameters
-        (:class:`biplan.model.assembly.ModelParams`).
+        (:class:`biplan.model.params.ModelParams`).
     q, lam, lam_c
         Coordinates (n_q,), guide multipliers (2N,) [N], contact multipliers (n_c,) [N/mm].
     second_order

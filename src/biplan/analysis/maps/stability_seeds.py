@@ -1,0 +1,111 @@
+"""The fixed starts of the equilibrium search of the stability map
+(:mod:`biplan.analysis.maps.stability_map`).
+
+:func:`seeds` gives the packed starting vectors at a prescribed load-point displacement u [mm]:
+one per subset of the circular folds (or the older fold patterns), each with the displacement
+shared equally by its open folds, and a *pressed* copy (contact multipliers :data:`PRESS` on
+the closed contacts) where the open folds push. :func:`pushing` evaluates the laws for that
+test; :func:`max_seeds` bounds the count.
+"""
+
+from __future__ import annotations
+
+import itertools
+from typing import Any
+
+import numpy as np
+
+from biplan.model.assembly import Model
+from biplan.model.tube import Tube
+from biplan.solvers.observe import ACTIVE_GAP
+
+__all__ = ["PRESS", "max_seeds", "pushing", "seeds"]
+
+#: Contact multiplier [N/mm] of the closed contacts of a "pressed" seed (:func:`seeds`).
+PRESS = 1e-3
+
+
+def pushing(tube: Tube, u: np.ndarray) -> np.ndarray:
+    """(len(u), N_c, N_c) booleans: whether circular fold i pushes (law force < 0) when k + 1
+    folds share the displacement u [mm] equally (opening u / (k + 1)); one law evaluation
+    per distinct law."""
+    u = np.asarray(u, dtype=float).reshape(-1)
+    n_circ = tube.n_circular
+    ws = u[:, None] / np.arange(1, n_circ + 1)[None, :]
+    forces: dict[Any, np.ndarray] = {}
+    for law in tube.circular_laws:
+        if law not in forces:
+            forces[law] = np.asarray(law.force(ws)) < 0.0
+    return np.stack([forces[law] for law in tube.circular_laws], axis=1)
+
+
+def seeds(
+    model: Model,
+    u: float,
+    kind: str = "subsets",
+    pressed_only: bool = False,
+    pushes: np.ndarray | None = None,
+) -> np.ndarray:
+    """Packed starting vectors (n_seeds, n_z) for prescribed displacement ``u`` [mm].
+
+    ``kind`` "subsets": one start per subset of the circular folds (2^N_c, all folds closed
+    first), the displacement shared equally by the open folds of the subset — the fold states
+    of the tube's phase-1/phase-2 combinations, every one of which can be a stable
+    equilibrium (the circular folds are in series and nearly equivalent; docs/maps.md).
+    "patterns": the 3 N_c − 2 patterns of earlier versions (all closed, shared by all, one
+    per fold, the k lowest and the k highest folds), which miss most combinations of two or
+    more open folds.
+
+    A start whose open folds all *push* (law force < 0 at their opening: between a
+    bistable law's unloaded open opening and its second zero) is added a second time,
+    *pressed*: with multiplier :data:`PRESS` on every closed contact. Such a state can be an
+    equilibrium held by the contacts alone — the tube in compression, every other fold pressed
+    shut, no free direction left (a contact-locked state, stable by MODEL.md §12). Newton from
+    zero multipliers treats a closed gap and its multiplier alike and opens the gaps, so it
+    leaves such states; from the pressed start it keeps the gaps shut and finds the
+    multipliers (docs/maps.md, "contact-locked states"). ``pressed_only``: only these
+    (possibly none: shape (0, n_z)). ``pushes``: :func:`pushing` of this ``u`` (computed
+    when not given).
+    """
+    nq = model.n_coordinates
+    n_circ = model.tube.n_circular
+    first = nq - n_circ
+    patterns: list[np.ndarray]
+    if kind == "subsets":
+        patterns = [
+            np.isin(np.arange(n_circ), c).astype(float)
+            for k in range(n_circ + 1)
+            for c in itertools.combinations(range(n_circ), k)
+        ]
+    else:
+        patterns = [np.zeros(n_circ), np.ones(n_circ)]
+        patterns += [np.eye(n_circ)[i] for i in range(n_circ)]
+        for k in range(2, n_circ):
+            patterns += [np.r_[np.ones(k), np.zeros(n_circ - k)]]
+            patterns += [np.r_[np.zeros(n_circ - k), np.ones(k)]]
+    if pushes is None:
+        pushes = pushing(model.tube, np.array([u]))[0]
+    lam_c = slice(nq + model.n_guides, nq + model.n_guides + model.n_contacts)
+    n_z = lam_c.stop + 1
+    plain, pressed = [], []
+    for pat in patterns:
+        k = int(pat.sum())
+        push = k > 0 and bool(pushes[pat > 0, k - 1].all())
+        if pressed_only and not push:
+            continue
+        z = np.zeros(n_z)
+        if k > 0:
+            z[first:nq] = pat * u / k
+        plain.append(z)
+        if push:
+            zp = z.copy()
+            zp[lam_c] = np.where(model.contact_gaps(z[:nq]) < ACTIVE_GAP, PRESS, 0.0)
+            pressed.append(zp)
+    out = pressed if pressed_only else plain + pressed
+    return np.asarray(out).reshape(-1, n_z)
+
+
+def max_seeds(n_circular: int, kind: str) -> int:
+    """Most starts :func:`seeds` returns for ``n_circular`` folds (pressed ones included)."""
+    n = 2**n_circular if kind == "subsets" else 3 * n_circular - 2
+    return 2 * n
