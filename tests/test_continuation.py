@@ -177,7 +177,7 @@ def test_bad_inputs_are_rejected_before_solving(model6):
         biplan.Control.force(float("nan"))
     with pytest.raises(biplan.ConfigError, match="initial_step"):
         biplan.ArcLength(initial_step=-1.0)
-    with pytest.raises(biplan.ConfigError, match="control"):
+    with pytest.raises(biplan.ConfigError, match="load"):
         biplan.trace_path(model6, biplan.ArcLength(), None, None)
     with pytest.raises(biplan.ConfigError, match="kind"):
         biplan.Control("torque", 1.0)

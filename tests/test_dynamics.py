@@ -74,7 +74,7 @@ def _free_vibration(model6, s, modes, h, rho=1.0, rayleigh=0.0, periods=3.0):
         model6,
         biplan.GeneralizedAlpha(time_step=h, spectral_radius=rho, rayleigh=rayleigh),
         s,
-        v0,
+        v0=v0,
         t_end=t_end,
         load=biplan.LoadHistory.constant(1.0),
     )
@@ -164,5 +164,5 @@ def test_bad_dynamics_inputs(model6):
         biplan.GeneralizedAlpha(spectral_radius=1.5)
     with pytest.raises(biplan.ConfigError, match=r"load.times"):
         biplan.LoadHistory(ControlKind.FORCE, (0.0, 0.0), (0.0, 1.0))
-    with pytest.raises(biplan.ConfigError, match="q0"):
+    with pytest.raises(biplan.ConfigError, match="start"):
         biplan.integrate(model6, None, np.full(model6.n_coordinates, 0.3), t_end=0.1)

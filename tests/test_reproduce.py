@@ -21,20 +21,18 @@ import pytest
 import xarray as xr
 
 from biplan.cli.main import main
-from biplan.cli.reproduce import FIGURE_FILES
-from biplan.reproduction.claims import (
-    CLAIMS,
+from biplan.reproduction.claims import CLAIMS
+from biplan.reproduction.facts import (
     CalibrationFacts,
     MovieFacts,
     Results,
     SemiBistableFacts,
     StateFacts,
     ValidationFacts,
-    Verdict,
-    assess,
-    grade,
-    grade_distance,
 )
+from biplan.reproduction.figures import FIGURE_FILES
+from biplan.reproduction.grading import Grade, grade, grade_distance
+from biplan.reproduction.report import assess
 
 DATA_FILES = (
     "REPRODUCTION.md",
@@ -223,19 +221,19 @@ def _results(good: bool) -> Results:
 def test_verdict_follows_the_results(claim) -> None:
     good = assess(_results(True), [claim])[0].finding
     bad = assess(_results(False), [claim])[0].finding
-    assert good.verdict is Verdict.REPRODUCED, (good.value, good.reason)
-    assert bad.verdict is Verdict.NOT, (bad.value, bad.reason)
+    assert good.verdict is Grade.REPRODUCED, (good.value, good.reason)
+    assert bad.verdict is Grade.NOT, (bad.value, bad.reason)
 
 
 @pytest.mark.parametrize("claim", CLAIMS, ids=[c.id for c in CLAIMS])
 def test_no_verdict_is_typed(claim) -> None:
     """Every verdict comes out of ``grade``/``grade_distance``; no literal verdict."""
     tree = ast.parse(textwrap.dedent(inspect.getsource(claim.check)))
-    literals = {v.value for v in Verdict}
+    literals = {v.value for v in Grade}
     calls = set()
     for node in ast.walk(tree):
         if isinstance(node, ast.Attribute) and isinstance(node.value, ast.Name):
-            assert node.value.id != "Verdict", f"{claim.id}: Verdict.{node.attr}"
+            assert node.value.id != "Grade", f"{claim.id}: Grade.{node.attr}"
         if isinstance(node, ast.Constant) and isinstance(node.value, str):
             assert node.value not in literals, f"{claim.id}: literal {node.value!r}"
         if isinstance(node, ast.Call) and isinstance(node.func, ast.Name):
@@ -256,18 +254,18 @@ def test_distributed_onset_with_serrated_completion_is_partly() -> None:
     results = _results(True)
     results.semi = replace(semi, switched=switched)
     found = assess(results, [claim])[0].finding
-    assert found.verdict is Verdict.PARTLY and "6 of 6" in found.value, found
+    assert found.verdict is Grade.PARTLY and "6 of 6" in found.value, found
     one = semi.spinodal.copy()
     one[9, 1:] = 0.0
     results.semi = replace(semi, switched=switched, spinodal=one)
-    assert assess(results, [claim])[0].finding.verdict is Verdict.NOT
+    assert assess(results, [claim])[0].finding.verdict is Grade.NOT
     results.semi = replace(semi, switched=switched, spinodal=None)
-    assert assess(results, [claim])[0].finding.verdict is Verdict.NOT
+    assert assess(results, [claim])[0].finding.verdict is Grade.NOT
     # a short tube: the folds soften together and transform without a snap
     force = np.r_[np.linspace(0.1, 1.5, 10), np.linspace(1.4, 0.2, 10), np.linspace(0.3, 2, 10)]
     calm = np.zeros(semi.force.size, dtype=bool)
     results.semi = replace(semi, force=force, switched=calm)
-    assert assess(results, [claim])[0].finding.verdict is Verdict.REPRODUCED
+    assert assess(results, [claim])[0].finding.verdict is Grade.REPRODUCED
 
 
 def test_within_ramp_reports_where_the_instability_map_transforms_within_the_ramp() -> None:
@@ -288,19 +286,19 @@ def test_failed_stage_is_reported_not_computed() -> None:
     results.states = None
     results.errors["states"] = "ConvergenceError: boom"
     out = {a.claim.id: a.finding for a in assess(results)}
-    assert out["fig4.count"].verdict is Verdict.NOT
+    assert out["fig4.count"].verdict is Grade.NOT
     assert "boom" in out["fig4.count"].reason
-    assert out["fig3.A1.extension"].verdict is Verdict.REPRODUCED
+    assert out["fig3.A1.extension"].verdict is Grade.REPRODUCED
 
 
 def test_grading_helpers() -> None:
-    assert grade([True, True]) is Verdict.REPRODUCED
-    assert grade([True, False]) is Verdict.PARTLY
-    assert grade([False]) is Verdict.NOT and grade([]) is Verdict.NOT
-    assert grade_distance(0.0, 0.0, 1.0) is Verdict.REPRODUCED
-    assert grade_distance(0.5, 0.0, 1.0) is Verdict.PARTLY
-    assert grade_distance(2.0, 0.0, 1.0) is Verdict.NOT
-    assert grade_distance(float("nan"), 0.0, 1.0) is Verdict.NOT
+    assert grade([True, True]) is Grade.REPRODUCED
+    assert grade([True, False]) is Grade.PARTLY
+    assert grade([False]) is Grade.NOT and grade([]) is Grade.NOT
+    assert grade_distance(0.0, 0.0, 1.0) is Grade.REPRODUCED
+    assert grade_distance(0.5, 0.0, 1.0) is Grade.PARTLY
+    assert grade_distance(2.0, 0.0, 1.0) is Grade.NOT
+    assert grade_distance(float("nan"), 0.0, 1.0) is Grade.NOT
 
 
 def test_tpc_sign_is_checked_before_any_stage(tmp_path: Path, capsys) -> None:

@@ -16,7 +16,7 @@ import pandas as pd
 import pytest
 
 import biplan
-from biplan.analysis.sensitivity.equilibrium import Method, Observable, eigen_weights, sensitivity
+from biplan.analysis.sensitivity.equilibrium import Mode, Observable, eigen_weights, sensitivity
 from biplan.analysis.sensitivity.finite_differences import (
     finite_differences,
     limit_point_finite_differences,
@@ -111,8 +111,8 @@ def test_state_derivatives_match_finite_differences(case: str, request: pytest.F
 
 def test_adjoint_and_direct_agree_and_min_eigenvalue_is_the_stability_one(model1):
     state = _tension(model1)
-    adjoint = sensitivity(model1, state, method=Method.ADJOINT)
-    direct = sensitivity(model1, state, method=Method.DIRECT)
+    adjoint = sensitivity(model1, state, mode=Mode.ADJOINT)
+    direct = sensitivity(model1, state, mode=Mode.DIRECT)
     np.testing.assert_allclose(adjoint.derivatives, direct.derivatives, rtol=1e-9, atol=1e-13)
     lam = adjoint.values[adjoint.observables.index(Observable.MIN_EIGENVALUE)]
     assert lam == pytest.approx(biplan.classify(model1, state).min_eigenvalue, rel=1e-12)

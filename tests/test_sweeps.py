@@ -432,7 +432,7 @@ def test_dynamic_finish_falls_back_to_backward_euler(model1, monkeypatch) -> Non
         calls.append((scheme, start.force, t_end, load))
         failed = len(calls) == 1
         status = TrajectoryStatus.STEP_FAILED if failed else TrajectoryStatus.COMPLETED
-        return SimpleNamespace(status=status, scheme=scheme.describe())
+        return SimpleNamespace(status=status, method=scheme.describe())
 
     monkeypatch.setattr(ramp_dynamics, "integrate", fake_integrate)
     monkeypatch.setattr(ramp_dynamics, "_rayleigh", lambda *args: 7.0)
@@ -445,18 +445,18 @@ def test_dynamic_finish_falls_back_to_backward_euler(model1, monkeypatch) -> Non
     assert first.time_step == second.time_step == 0.01 and first.rayleigh == second.rayleigh == 7.0
     assert calls[0][1:] == calls[1][1:] and calls[0][1] == pytest.approx(1.8)
     assert calls[0][2] == pytest.approx(0.5)
-    assert out.scheme.startswith("backward-euler")
+    assert out.method.startswith("backward-euler")
     calls.clear()  # a generalized-α run that completes is returned as it is
 
     def completes(model, scheme, start, *, t_end, load):
         calls.append((scheme, start.force, t_end, load))
-        return SimpleNamespace(status=TrajectoryStatus.COMPLETED, scheme=scheme.describe())
+        return SimpleNamespace(status=TrajectoryStatus.COMPLETED, method=scheme.describe())
 
     monkeypatch.setattr(ramp_dynamics, "integrate", completes)
     out = ramp_dynamics.continue_ramp(model1, z, 1.5, rate=1.2, duration=2.0, damping_ratio=0.05,
                                       time_step=0.01, spectral_radius=0.5)  # fmt: skip
     assert len(calls) == 1 and calls[0][0].spectral_radius == 0.5
-    assert out.scheme.startswith("generalized-alpha")
+    assert out.method.startswith("generalized-alpha")
 
 
 # --- the stability map ------------------------------------------------------------------------

@@ -3,6 +3,7 @@
 Every invalid parameter raises :class:`ConfigError` (a :class:`ValueError`) that names the
 parameter, its value and the valid range, before any solve starts. A solve that does not
 converge returns a status; with ``throw=True`` it raises :class:`ConvergenceError` instead. A
+result's status is a :class:`ResultStatus` (its code, a one-line ``message`` and ``ok``). A
 valid request that will cost much more than usual (a tube of hundreds of modules) issues a
 :class:`CostWarning` (a :class:`UserWarning`) saying what it will cost, before the work; the
 command line prints it as one yellow line.
@@ -10,6 +11,7 @@ command line prints it as one yellow line.
 
 from __future__ import annotations
 
+import enum
 import math
 import numbers
 from typing import Any
@@ -20,6 +22,7 @@ __all__ = [
     "ConfigError",
     "ConvergenceError",
     "CostWarning",
+    "ResultStatus",
     "check_finite",
     "check_integer",
     "check_range",
@@ -52,6 +55,28 @@ class ConfigError(BiplanError, ValueError):
 
 class ConvergenceError(BiplanError, RuntimeError):
     """A solver did not converge (raised only with ``throw=True``)."""
+
+
+class ResultStatus(enum.Enum):
+    """Base of every result's status (solve, path, trajectory, departure, minimum-energy path).
+
+    A member is declared as ``NAME = code, message`` or ``NAME = code, message, ok``: ``value``
+    is the code (what the compiled kernels return and the files hold), ``message`` says in one
+    line why the result ended, ``ok`` whether it is the result asked for (default ``False``).
+    Every result carries its status as ``result.status`` and a message that starts from it
+    as ``result.message``; every driver's ``throw=True`` raises :class:`ConvergenceError`
+    with that message when the status is not ``ok``.
+    """
+
+    message: str
+    ok: bool
+
+    def __new__(cls, *declared: Any) -> ResultStatus:  # (code, message[, ok])
+        member = object.__new__(cls)
+        member._value_ = declared[0]
+        member.message = declared[1]
+        member.ok = bool(declared[2]) if len(declared) > 2 else False
+        return member
 
 
 class BiplanWarning(UserWarning):

@@ -42,7 +42,7 @@ def run_response(
     from biplan.analysis.response.summary import summarize
     from biplan.io.results import dataset, save_csv, save_netcdf
 
-    ref = biplan.relaxed_reference(model)
+    ref = biplan.relaxed_reference(model, throw=True)
     alpha = rayleigh_at(model, ref, biplan.Load.of_force(0.8), DAMPING_RATIO)
     ramp = biplan.integrate(
         model, biplan.GeneralizedAlpha(time_step=0.01, rayleigh=alpha), ref, t_end=2.0

@@ -5,15 +5,19 @@ it, sweeps the prescribed end displacement U from 0 (exclusive) to 9 mm with
 :func:`~biplan.analysis.response.quasistatic.displacement_sweep`, prints a table and a summary, and
 writes into ``--out``:
 
-* ``force_displacement.png`` — F [N] against U [mm], snapshot states marked (a)–(c);
+* ``force_displacement.png`` — F [N] against U [mm], snapshot states marked B.1–B.3;
 * ``development.png`` — deformed developments of the snapshots, folds coloured by w [mm];
 * ``cylinder.png`` — the snapshots wrapped onto the cylinder, side by side;
 * ``demo.csv`` — one row per step: displacement [mm], force [N], u_z [mm], u_r [mm],
   theta [rad], energy [N·mm], min_eigenvalue, stable (1/0), status, switched (1/0)
   (:func:`biplan.io.results.save_sweep_csv`).
 
-Snapshots: (a) the phase-1 state (before the first snap or unstable step) whose force is
-nearest half the phase-1 peak force, (b) the phase-1 peak, (c) the last converged state.
+Snapshots: the paper's Fig. 3 B panels, as ``biplan reproduce`` draws them
+(:func:`biplan.reproduction.facts.snapshot_steps`): B.1 the phase-1 state whose force is
+nearest half the phase-1 peak force, B.2 the step midway between the first and the last snap,
+B.3 the last converged state when it follows the last snap. Only the panels that exist are
+drawn (a sweep without a snap has B.1 alone); without any, ``development.png`` and
+``cylinder.png`` are not written.
 """
 
 from __future__ import annotations
@@ -31,21 +35,21 @@ from rich.markup import escape
 from rich.table import Table
 
 from biplan.cli._checks import output_directory
+from biplan.reproduction.facts import snapshot_steps
 
 if TYPE_CHECKING:
     from biplan.analysis.response.quasistatic import QuasiStaticPath
     from biplan.model.assembly import Model
     from biplan.model.tube import Tube
     from biplan.solvers import Solution
-    from biplan.solvers.results import Snap
+    from biplan.solvers.path_results import Snap
 
-__all__ = ["MAX_DISPLACEMENT", "demo", "phase_one", "snapshots"]
+__all__ = ["MAX_DISPLACEMENT", "demo", "phase_one"]
 
 #: Final prescribed end displacement of the demo sweep [mm].
 MAX_DISPLACEMENT = 9.0
 #: Print every TABLE_STRIDE-th step in the table (and the last one).
 TABLE_STRIDE = 5
-DPI = 300
 
 
 def _tube(config: Path | None) -> Tube:
@@ -75,20 +79,13 @@ def phase_one(path: QuasiStaticPath) -> slice:
     return slice(0, phase_one_end(path.force, path.stable, path.switched))
 
 
-def snapshots(path: QuasiStaticPath) -> dict[str, int]:
-    """Step indices of the three snapshot states (a), (b), (c) (see module docstring)."""
+def _snapshots(path: QuasiStaticPath) -> dict[str, int]:
+    """Step indices of the snapshot states B.1–B.3 that exist (see module docstring)."""
     import biplan
 
-    ok = np.flatnonzero(np.isfinite(path.force))
-    if ok.size == 0:
+    if not np.any(np.isfinite(path.force)):
         raise biplan.ConvergenceError("no step of the displacement sweep converged")
-    first = phase_one(path)
-    idx = np.arange(len(path.force))[first]
-    if idx.size == 0:  # no regular phase 1: fall back to the whole converged path
-        idx = ok
-    peak = int(idx[np.argmax(path.force[idx])])
-    half = int(idx[np.argmin(np.abs(path.force[idx] - 0.5 * path.force[peak]))])
-    return {"a": half, "b": peak, "c": int(ok[-1])}
+    return snapshot_steps(path.force, path.stable, path.switched)
 
 
 def _table(path: QuasiStaticPath) -> Table:
@@ -144,13 +141,9 @@ def _summary(path: QuasiStaticPath, seconds: float, peak: Snap | None) -> str:
 def _figures(
     model: Model, start: Solution, path: QuasiStaticPath, snaps: dict[str, int], out: Path
 ) -> list[Path]:
-    """Write the three PNGs (``start``: the relaxed reference); returns their paths."""
-    import matplotlib
-
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
-
+    """Write the PNGs (``start``: the relaxed reference); returns their paths."""
     from biplan.plot import cylinder, development, elongation_norm, force_displacement
+    from biplan.plot.files import figure_file
     from biplan.plot.response import (
         COLUMN_FIGSIZE,
         FONT_SIZE,
@@ -166,8 +159,7 @@ def _figures(
     files = [out / f"{n}.png" for n in ("force_displacement", "development", "cylinder")]
     states = [path.solutions[k].q for k in snaps.values()]
 
-    fig, ax = plt.subplots(figsize=COLUMN_FIGSIZE, layout="constrained")
-    try:
+    with figure_file(files[0], figsize=COLUMN_FIGSIZE) as (_, ax):
         force_displacement(path, ax=ax)
         if np.isfinite(path.force[0]) and path.stable[0]:  # join the relaxed reference
             u0, f0 = [start.displacement, path.displacement[0]], [start.force, path.force[0]]
@@ -186,17 +178,17 @@ def _figures(
                 fontsize=FONT_SIZE,
             )
         legend_above(ax)
-        fig.savefig(files[0], dpi=DPI)
-    finally:
-        plt.close(fig)
+    if not snaps:
+        return files[:1]
 
-    fig, axes = plt.subplots(1, 3, figsize=(7.0, 3.9), layout="constrained")
-    try:
+    n = len(snaps)
+    with figure_file(files[1], ncols=n, squeeze=False, figsize=(7.0, 3.9)) as (_, grid):
+        axes = grid[0]
         norm = elongation_norm(model, states)
         for i, (key, q) in enumerate(zip(snaps, states, strict=True)):
-            development(model, q, ax=axes[i], norm=norm, colorbar=i == 2)
+            development(model, q, ax=axes[i], norm=norm, colorbar=i == n - 1)
             axes[i].set_title(title(key), fontsize=FONT_SIZE)
-        # One frame for all panels, so that the three states compare at equal scale.
+        # One frame for all panels, so that the states compare at equal scale.
         xlim = min(a.get_xlim()[0] for a in axes), max(a.get_xlim()[1] for a in axes)
         ylim = min(a.get_ylim()[0] for a in axes), max(a.get_ylim()[1] for a in axes)
         for i, a in enumerate(axes):
@@ -204,13 +196,8 @@ def _figures(
             if i:
                 a.set_ylabel("")
                 a.tick_params(labelleft=False)
-        fig.savefig(files[1], dpi=DPI)
-    finally:
-        plt.close(fig)
 
-    fig = plt.figure(figsize=(3.4, 3.6), layout="constrained")
-    try:
-        ax3 = fig.add_subplot(projection="3d")
+    with figure_file(files[2], figsize=(3.4, 3.6), subplot_kw={"projection": "3d"}) as (_, ax3):
         azim, spacing = -60.0, 5.0 * model.tube.development.radius
         side = np.radians(azim + 90.0)  # screen-horizontal direction at this azimuth
         for i, (key, q) in enumerate(zip(snaps, states, strict=True)):
@@ -225,9 +212,6 @@ def _figures(
                 va="top",
                 fontsize=FONT_SIZE,
             )
-        fig.savefig(files[2], dpi=DPI)
-    finally:
-        plt.close(fig)
     return files
 
 
@@ -282,7 +266,7 @@ def demo(
         raise typer.BadParameter(f"cannot create {out}: {err}", param_hint="--out") from None
     relaxing = "Relaxing the reference state (compiles on first use)…"
     with console.status(relaxing) if interactive else contextlib.nullcontext():
-        ref = biplan.relaxed_reference(model)
+        ref = biplan.relaxed_reference(model, throw=True)
     targets = np.linspace(MAX_DISPLACEMENT / steps, MAX_DISPLACEMENT, steps)
     progress = Progress(
         TextColumn("{task.description}"),
@@ -310,7 +294,7 @@ def demo(
         from biplan.io.results import save_sweep_csv
 
         save_sweep_csv(path, out / "demo.csv")  # first: kept even if no step converged
-        files = _figures(model, ref, path, snapshots(path), out)
+        files = _figures(model, ref, path, _snapshots(path), out)
     except OSError as err:
         raise typer.BadParameter(f"cannot write into {out}: {err}", param_hint="--out") from None
     from biplan.cli._demo_response import run_response

@@ -34,7 +34,7 @@ from __future__ import annotations
 import sys
 import time
 from pathlib import Path
-from typing import TYPE_CHECKING, Annotated, Any
+from typing import TYPE_CHECKING, Annotated, Any, cast
 
 import typer
 from rich.console import Console
@@ -49,6 +49,7 @@ if TYPE_CHECKING:
 
 __all__ = ["MAX_POINTS", "WARN_SECONDS", "app", "check_size", "design", "plot", "run_map",
            "stability"]  # fmt: skip
+
 
 app = typer.Typer(help="Design and stability maps over grids of design parameters.",
                   no_args_is_help=True)  # fmt: skip
@@ -380,7 +381,7 @@ def stability(
         str,
         typer.Option(
             help="Fixed seeds: 'subsets' (every subset of open circular folds, up to 8 folds) "
-            "or 'patterns' (3 N_c - 2 patterns, earlier versions)."
+            "or 'patterns' (3 N_c - 2 patterns next to the base or the free end)."
         ),
     ] = "subsets",
     chunk_size: Annotated[
@@ -399,6 +400,7 @@ def stability(
     import biplan
     from biplan.analysis.maps.stability_map import StabilityEvaluator, stability_chunk_size
     from biplan.analysis.maps.stability_search import StabilitySearch
+    from biplan.analysis.maps.stability_seeds import Seeding
     from biplan.analysis.maps.sweeps import Grid, apply_values, check_grid, parse_axis
 
     _check_runner(ctx, out, chunk_size, workers, scheduler, threads)
@@ -406,7 +408,7 @@ def stability(
              "search.seeding": "--seeding"}  # fmt: skip
     with options_named(names):
         grid = Grid((parse_axis("C", c), parse_axis("displacement", displacement)))
-        ev = StabilityEvaluator(StabilitySearch(max_equilibria=max_equilibria, seeding=seeding))
+        ev = StabilityEvaluator(StabilitySearch(max_equilibria, seeding=cast(Seeding, seeding)))
     tube = biplan.load_config(config)
     with options_named(_GRID_OPTIONS):
         tube = apply_values(tube, {"b": b})

@@ -286,7 +286,7 @@ def _stable_sweep(model: Model, stop: float, step: float, out: Path, quiet: bool
     from biplan.io.results import save_netcdf, save_sweep_csv, sweep_dataset
 
     n = _stable_steps(stop, step)
-    ref = biplan.relaxed_reference(model)
+    ref = biplan.relaxed_reference(model, throw=True)
     path = displacement_sweep(model, np.linspace(stop / n, stop, n), start=ref)
     out.mkdir(parents=True, exist_ok=True)
     save_netcdf(sweep_dataset(path, model), out / "response.nc")
@@ -408,7 +408,7 @@ def _dynamic(
     history = biplan.LoadHistory(ControlKind(kind), times, values)
     rayleigh = 0.0
     if damping_ratio > 0:
-        ref = biplan.relaxed_reference(model)  # type: ignore[arg-type]
+        ref = biplan.relaxed_reference(model, throw=True)  # type: ignore[arg-type]
         probe = biplan.Control(ControlKind(kind), 0.5 * top).load(model, 0.5 * top)  # type: ignore[arg-type]
         rayleigh = rayleigh_at(model, ref, probe, damping_ratio)  # type: ignore[arg-type]
     scheme = BackwardEuler(time_step=time_step, rayleigh=rayleigh)

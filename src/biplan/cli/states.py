@@ -4,7 +4,8 @@
 DIR:
 
 * ``states.csv`` — one row per distinct stable equilibrium (``name,label,bits,energy,u_z,u_r,
-  theta,Theta,min_eigenvalue,n_open_helical,n_open_circular,seeds``; mm, rad, N·mm, N/mm);
+  theta,Theta,min_eigenvalue,n_open_helical,n_open_circular,seeds``; mm, rad, N·mm,
+  N·mm per unit q²);
 * ``seeds.csv`` — one row per seed: the bits it reached, stable/unstable/failed, the state;
 * ``states.nc`` — the catalogue as a labelled dataset (coordinates q of every state);
 * ``hierarchy.nc`` — slope branches, sub-branches, distributions (Fig. 4 C);

@@ -162,7 +162,7 @@ def validate(
         raise typer.BadParameter(f"cannot create {out}: {err}", param_hint="--out") from None
     relaxing = "Relaxing the reference state (compiles on first use)…"
     with console.status(relaxing) if interactive else contextlib.nullcontext():
-        ref = biplan.relaxed_reference(model)
+        ref = biplan.relaxed_reference(model, throw=True)
     targets = np.linspace(top / steps, top, steps)
     progress = Progress(
         TextColumn("{task.description}"),

@@ -114,7 +114,8 @@ def energy_by_fold_set(dataset: Any, *, ax: Axes | None = None, x: str | None = 
 def min_eigenvalue(
     dataset: Any, *, ax: Axes | None = None, x: str | None = None, symlog: bool = False
 ) -> Axes:
-    """Smallest eigenvalue λ_min of the reduced Hessian along the path [N·mm].
+    """Smallest eigenvalue λ_min of the reduced Hessian along the path [N·mm per unit q²; q in
+    mm and rad].
 
     Unstable stretches (``stable`` = 0) are dashed, as in :func:`biplan.plot.force_displacement`
     (a path may turn back in U, so stretches are not shaded as U intervals); contact-locked
@@ -136,10 +137,10 @@ def min_eigenvalue(
     Axes
     """
     xs, xlabel = abscissa(dataset, x)
-    lam = np.asarray(dataset["min_eigenvalue"].values, dtype=float)
+    min_eig = np.asarray(dataset["min_eigenvalue"].values, dtype=float)
     ax = _new_axes(ax, COLUMN_FIGSIZE)
-    stable = dataset["stable"].values if "stable" in dataset else np.ones(len(lam))
-    shown = np.where(np.isfinite(lam), lam, np.nan)
+    stable = dataset["stable"].values if "stable" in dataset else np.ones(len(min_eig))
+    shown = np.where(np.isfinite(min_eig), min_eig, np.nan)
     _stability_line(ax, xs, shown, np.asarray(stable, dtype=bool))
     ax.axhline(0.0, color="0.4", lw=0.6, zorder=1)
     if symlog and np.isfinite(shown).any():

@@ -93,8 +93,8 @@ def step(
     """
     am, af, gamma, beta, alpha_r, mu_s, atol, max_it, e_tol = (settings[i] for i in range(9))
     nq, _, _ = sizes(layout)
-    lam = jnp.interp(t_next, times, values)
-    load = Load(ctl[0] * lam, ctl[1] * lam, ctl[2])
+    load_parameter = jnp.interp(t_next, times, values)
+    load = Load(ctl[0] * load_parameter, ctl[1] * load_parameter, ctl[2])
     q_n, v_n, a_n, qdd_n = s.z[:nq], s.v, s.a, s.qdd
 
     def kin(q: Array) -> tuple[Array, Array, Array]:

@@ -39,9 +39,9 @@ RUNNING, COMPLETED, MAX_STEPS, STALLED = -1, 0, 1, 2
 RETURNED, LIMIT_POINT = 5, 6
 
 
-def load_of(ctl: Array, lam: Array) -> Load:
+def load_of(ctl: Array, load_parameter: Array) -> Load:
     """The Load at parameter Λ for control coefficients ``ctl = (c_F, c_U, d)``."""
-    return Load(ctl[0] * lam, ctl[1] * lam, ctl[2])
+    return Load(ctl[0] * load_parameter, ctl[1] * load_parameter, ctl[2])
 
 
 def _weights(layout: TubeLayout, n: int) -> Array:
@@ -49,29 +49,29 @@ def _weights(layout: TubeLayout, n: int) -> Array:
     return jnp.concatenate([jnp.ones(nq), jnp.zeros(n - nq)])
 
 
-def _blocks(layout: TubeLayout, p: ModelParams, z: Array, lam: Array, ctl: Array):
+def _blocks(layout: TubeLayout, p: ModelParams, z: Array, load_parameter: Array, ctl: Array):
     def r_of(zz: Array, ll: Array) -> Array:
         return residual(layout, p, zz, load_of(ctl, ll))
 
-    r, r_lam = jax.jvp(lambda ll: r_of(z, ll), (lam,), (jnp.ones_like(lam),))
-    jac = kkt_jacobian(layout, p, z, load_of(ctl, lam))
-    return r, r_lam, jac
+    r, r_load = jax.jvp(lambda ll: r_of(z, ll), (load_parameter,), (jnp.ones_like(load_parameter),))
+    jac = kkt_jacobian(layout, p, z, load_of(ctl, load_parameter))
+    return r, r_load, jac
 
 
-def _bordered_solve(jac: Array, r_lam: Array, row_z: Array, row_l: Array, rhs: Array) -> Array:
-    top = jnp.concatenate([jac, r_lam[:, None]], axis=1)
+def _bordered_solve(jac: Array, r_load: Array, row_z: Array, row_l: Array, rhs: Array) -> Array:
+    top = jnp.concatenate([jac, r_load[:, None]], axis=1)
     bottom = jnp.concatenate([row_z, row_l[None]])[None, :]
     return linalg.solve(jnp.concatenate([top, bottom], axis=0), rhs)
 
 
 class CorrectorOut(NamedTuple):
     z: Array
-    lam: Array
+    load_parameter: Array
     converged: Array
     iterations: Array
     residual: Array  # ‖r‖∞ at the returned point
     jac: Array  # Jacobian blocks at the returned point (for the tangent)
-    r_lam: Array
+    r_load: Array
 
 
 @kernel("corrector", in_axes=(None, 0, 0, None, 0, 0, 0, None, None), axis_name="lanes")
@@ -79,7 +79,7 @@ def corrector(
     layout: TubeLayout,
     p: ModelParams,
     z0: Array,
-    lam0: Array,
+    load_parameter0: Array,
     ctl: Array,
     row_z: Array,
     row_l: Array,
@@ -93,16 +93,16 @@ def corrector(
     n = z0.shape[0]
 
     def aug(x: Array) -> Array:
-        z, lam = x[:n], x[n]
-        r = residual(layout, p, z, load_of(ctl, lam))
-        return jnp.concatenate([r, (row_z @ z + row_l * lam - rho)[None]])
+        z, load_parameter = x[:n], x[n]
+        r = residual(layout, p, z, load_of(ctl, load_parameter))
+        return jnp.concatenate([r, (row_z @ z + row_l * load_parameter - rho)[None]])
 
     def jac(x: Array) -> Array:
-        _, r_lam, j = _blocks(layout, p, x[:n], x[n], ctl)
-        top = jnp.concatenate([j, r_lam[:, None]], axis=1)
+        _, r_load, j = _blocks(layout, p, x[:n], x[n], ctl)
+        top = jnp.concatenate([j, r_load[:, None]], axis=1)
         return jnp.concatenate([top, jnp.concatenate([row_z, row_l[None]])[None, :]], axis=0)
 
-    x0 = jnp.concatenate([z0, lam0[None]])
+    x0 = jnp.concatenate([z0, load_parameter0[None]])
     out = damped(aug, jac, x0, atol, max_iterations, axis_name=axis_name)
     return CorrectorOut(
         out.z[:n],
@@ -115,20 +115,20 @@ def corrector(
     )
 
 
-def tangent(jac: Array, r_lam: Array, weights: Array, w_lam: Array, previous: Array) -> Array:
+def tangent(jac: Array, r_load: Array, weights: Array, w_lam: Array, previous: Array) -> Array:
     """Unit tangent (weighted norm) of the solution curve, oriented along ``previous``."""
     n = jac.shape[0]
     row_z = weights * previous[:n]
     row_l = w_lam**2 * previous[n]
     rhs = jnp.zeros(n + 1).at[n].set(1.0)
-    t = _bordered_solve(jac, r_lam, row_z, row_l, rhs)
+    t = _bordered_solve(jac, r_load, row_z, row_l, rhs)
     norm = jnp.sqrt(jnp.sum(weights * t[:n] ** 2) + (w_lam * t[n]) ** 2)
     return t / norm
 
 
 class PathBuffers(NamedTuple):
     z: Array  # (B, n)
-    lam: Array  # (B,)
+    load_parameter: Array  # (B,)
     tangent: Array  # (B, n + 1)
     step: Array  # (B,) step length that reached the state
     iterations: Array  # (B,)
@@ -144,7 +144,7 @@ def path_loop(
     buffer_size: int,
     p: ModelParams,
     z0: Array,
-    lam0: Array,
+    load_parameter0: Array,
     ctl: Array,
     stop: Array,
     settings: Array,
@@ -166,22 +166,22 @@ def path_loop(
     stop_at_limit = settings[9] > 0.5
     n = z0.shape[0]
     weights = _weights(layout, n)
-    direction = jnp.sign(stop - lam0)
+    direction = jnp.sign(stop - load_parameter0)
 
     weak = layout.options.weak_contacts_active
 
-    def observed(z: Array, lam: Array, jac: Array) -> Observation:
-        return observe_from_jacobian(layout, p, z, load_of(ctl, lam), jac, weak)
+    def observed(z: Array, load_parameter: Array, jac: Array) -> Observation:
+        return observe_from_jacobian(layout, p, z, load_of(ctl, load_parameter), jac, weak)
 
     # The start's tangent and observation come from the loop's first pass: a corrector with
     # no step (Λ fixed at Λ0) evaluates the Jacobian at z0, so the kernel holds one residual
     # and one Jacobian site, not a second pair for the start (half the compile time).
     t_orient = jnp.zeros(n + 1).at[n].set(direction)
-    shapes = jax.eval_shape(observed, z0, lam0, jnp.zeros((n, n)))
+    shapes = jax.eval_shape(observed, z0, load_parameter0, jnp.zeros((n, n)))
 
     buf = PathBuffers(
         z=jnp.zeros((buffer_size, n)).at[0].set(z0),
-        lam=jnp.zeros(buffer_size).at[0].set(lam0),
+        load_parameter=jnp.zeros(buffer_size).at[0].set(load_parameter0),
         tangent=jnp.zeros((buffer_size, n + 1)),
         step=jnp.zeros(buffer_size),
         iterations=jnp.zeros(buffer_size, dtype=int),
@@ -197,7 +197,7 @@ def path_loop(
         return s[0].status == RUNNING
 
     def body(s: tuple) -> tuple:
-        b, z, lam, t, ds, fails, started = s
+        b, z, load_parameter, t, ds, fails, started = s
         first = ~started
         tz, tl = t[:n], t[n]
         # predictor
@@ -205,8 +205,8 @@ def path_loop(
         tl_safe = jnp.where(jnp.abs(tl) > 1e-12, tl, 1e-12)
         # natural step: tangent predictor (load stepping) or, as an arclength retry, none
         z_nat = jnp.where(natural, z + (h / tl_safe) * tz, z)
-        l_nat = lam + h
-        z_arc, l_arc = z + ds * tz, lam + ds * tl
+        l_nat = load_parameter + h
+        z_arc, l_arc = z + ds * tz, load_parameter + ds * tl
         # Retry cycle after failures (arclength only): pseudo-arclength → local
         # parametrisation → natural step of Λ; the step halves after a full failed cycle.
         mode = jnp.where(natural, 2, fails % 3)
@@ -214,7 +214,7 @@ def path_loop(
         lp = jnp.where(mode == 2, l_nat, l_arc)
         # the first pass stays at the start: Λ fixed at Λ0, z0 as the predictor, no step
         zp = jnp.where(first, z, zp)
-        lp = jnp.where(first, lam, lp)
+        lp = jnp.where(first, load_parameter, lp)
         final = ~first & ((lp - stop) * direction >= 0.0)
         # side condition: hyperplane ⟂ tangent, or Λ fixed (natural / final step)
         fix = (mode == 2) | final | first
@@ -228,7 +228,7 @@ def path_loop(
         row_l = jnp.where(fix, 1.0, jnp.where(local, e[n], w_lam**2 * tl))
         target = jnp.where(final, stop, lp)
         rho = jnp.where(fix, target, row_z @ zp + row_l * lp)
-        zp = jnp.where(final & natural, z + ((stop - lam) / tl_safe) * tz, zp)
+        zp = jnp.where(final & natural, z + ((stop - load_parameter) / tl_safe) * tz, zp)
         c = corrector(
             layout,
             p,
@@ -245,11 +245,11 @@ def path_loop(
         # orient the new tangent along the old one after a pseudo-arclength step (smooth limit
         # points), along the secant of the step after a retry (sharp corners, where the old
         # tangent would point back along the new branch)
-        secant = jnp.concatenate([c.z - z, (c.lam - lam)[None]])
+        secant = jnp.concatenate([c.z - z, (c.load_parameter - load_parameter)[None]])
         sec_norm = jnp.sqrt(jnp.sum(weights * secant[:n] ** 2) + (w_lam * secant[n]) ** 2)
         t_new = tangent(
             c.jac,
-            c.r_lam,
+            c.r_load,
             weights,
             w_lam,
             jnp.where((sec_norm > 0) & (mode > 0) & started, secant, t),
@@ -257,7 +257,7 @@ def path_loop(
         # a retry must move on along the branch in q, not fall back onto the traversed part
         forward = jnp.sum(weights * secant[:n] * tz) > 0.0
         ok = ok & jnp.all(jnp.isfinite(t_new)) & ((mode == 0) | natural | forward)
-        back = ok & started & ((c.lam - lam0) * direction < 0.0)
+        back = ok & started & ((c.load_parameter - load_parameter0) * direction < 0.0)
         turned = ok & ~back & stop_at_limit & (t_new[n] * direction < 0.0) & started
         # the first pass records only the start's tangent and observation (at index 0)
         ok = ok & ~back & started
@@ -266,7 +266,7 @@ def path_loop(
         # the state's observation from the corrector's Jacobian (computed for recorded states)
         obs = jax.lax.cond(
             record,
-            lambda: observed(c.z, c.lam, c.jac),
+            lambda: observed(c.z, c.load_parameter, c.jac),
             lambda: jax.tree_util.tree_map(lambda v: v[0], b.observation),
         )
         nb = b._replace(
@@ -276,7 +276,9 @@ def path_loop(
                 obs,
             ),
             z=jnp.where(ok, b.z.at[i].set(c.z), b.z),
-            lam=jnp.where(ok, b.lam.at[i].set(c.lam), b.lam),
+            load_parameter=jnp.where(
+                ok, b.load_parameter.at[i].set(c.load_parameter), b.load_parameter
+            ),
             tangent=jnp.where(record, b.tangent.at[i].set(t_new), b.tangent),
             step=jnp.where(ok, b.step.at[i].set(ds), b.step),
             iterations=jnp.where(ok, b.iterations.at[i].set(c.iterations), b.iterations),
@@ -312,13 +314,13 @@ def path_loop(
         return (
             nb,
             jnp.where(ok, c.z, z),
-            jnp.where(ok, c.lam, lam),
+            jnp.where(ok, c.load_parameter, load_parameter),
             jnp.where(record, t_new, t),
             ds_new,
             jnp.where(record, 0, fails + 1),
             jnp.asarray(True),
         )
 
-    init = (buf, z0, lam0, t_orient, ds0, jnp.asarray(0), jnp.asarray(False))
+    init = (buf, z0, load_parameter0, t_orient, ds0, jnp.asarray(0), jnp.asarray(False))
     out = jax.lax.while_loop(cond, body, init)
     return out[0]

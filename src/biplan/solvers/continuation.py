@@ -1,8 +1,8 @@
 """Path following through snap-through: load stepping and pseudo-arclength continuation.
 
-``trace_path(model, method, start, control)`` follows the equilibrium branch from ``start``
-while the load parameter Λ of ``control`` (end force, end displacement or pressure) goes to
-``control.stop``:
+``trace_path(model, method, start, load)`` follows the equilibrium branch from ``start``
+while the load parameter Λ of the :class:`Control` ``load`` (end force, end displacement or
+pressure) goes to ``load.stop``:
 
 * :class:`LoadStepping` — natural-parameter continuation: Λ is stepped, the tangent predicts,
   Newton corrects. Under displacement control it passes force limit points; under force
@@ -29,7 +29,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from biplan._compile.setup import jnp
-from biplan._errors import ConfigError, check_integer, check_range
+from biplan._errors import ConfigError, ConvergenceError, check_integer, check_range
 from biplan.model.assembly import Load, Model
 from biplan.solvers import _pathkernel as pk
 from biplan.solvers.control import Control
@@ -149,7 +149,7 @@ def _start_state(model: Model, control: Control, start: object, solver: Newton) 
     from biplan.solvers.newton import relaxed_reference
 
     if start is None:
-        ref = relaxed_reference(model, solver)
+        ref = relaxed_reference(model, solver, throw=True)
         value = 0.0 if control.start is None else control.start
         return ref if value == 0.0 else _solve_at(model, control, ref, value, solver)
     if not isinstance(start, Solution):
@@ -181,9 +181,11 @@ def trace_path(
     model: Model,
     method: LoadStepping | ArcLength | None = None,
     start: Solution | None = None,
-    control: Control | None = None,
+    load: Control | None = None,
+    *,
+    throw: bool = False,
 ) -> Path:
-    """Follow the equilibrium path of ``model`` under ``control``.
+    """Follow the equilibrium path of ``model`` under the controlled load ``load``.
 
     Parameters
     ----------
@@ -192,8 +194,11 @@ def trace_path(
         Default ``ArcLength()``.
     start : Solution, optional
         Converged starting state; default the relaxed reference (Λ = 0).
-    control : Control
+    load : Control
         The controlled quantity and its final value.
+    throw : bool
+        Raise :class:`~biplan.ConvergenceError` instead of returning a path whose status is
+        not ``ok`` (default ``False``, as for every driver).
 
     Returns
     -------
@@ -202,34 +207,37 @@ def trace_path(
         path up to the last converged state, with the reason in ``path.message``
         (``FULL_CONTACT``: the tube is pressed shut, :data:`FULL_CONTACT_PENETRATION`).
     """
-    if control is None:
-        raise ConfigError("control", None, "a Control (Control.force / displacement / pressure)")
-    if not isinstance(control, Control):
-        raise ConfigError("control", type(control).__name__, "a biplan Control")
+    if load is None:
+        raise ConfigError("load", None, "a Control (Control.force / displacement / pressure)")
+    if not isinstance(load, Control):
+        raise ConfigError("load", type(load).__name__, "a biplan Control")
+    control = load
     method = ArcLength() if method is None else method
     if not isinstance(method, LoadStepping | ArcLength):
         raise ConfigError("method", type(method).__name__, "LoadStepping or ArcLength")
     solver = Newton(atol=method.atol)
     first = _start_state(model, control, start, solver)
-    lam0 = control.value_of(first.load, first.displacement, first.force, model)
+    load_parameter0 = control.value_of(first.load, first.displacement, first.force, model)
     ctl = control.coefficients(model)
     weight = getattr(method, "load_weight", 1.0)
-    if lam0 == control.stop:
-        raise ConfigError("control.stop", control.stop, f"a value other than the start {lam0:g}")
+    if load_parameter0 == control.stop:
+        raise ConfigError(
+            "control.stop", control.stop, f"a value other than the start {load_parameter0:g}"
+        )
 
     size = BUFFER_QUANTUM * int(np.ceil((method.max_steps + 1) / BUFFER_QUANTUM))
     run = pk.path_loop.compiled(model.layout, size)
     out = run(
         model.params,
         jnp.asarray(first.z),
-        jnp.asarray(lam0),
+        jnp.asarray(load_parameter0),
         jnp.asarray(ctl),
         jnp.asarray(float(control.stop)),
         jnp.asarray(method.settings(weight)),
     )
     count = int(out.count)
     z = np.asarray(out.z)[:count]
-    lam = np.asarray(out.lam)[:count]
+    load_parameter = np.asarray(out.load_parameter)[:count]
     tang = np.asarray(out.tangent)[:count]
     steps = np.asarray(out.step)[:count]
     its = np.asarray(out.iterations)[:count]
@@ -244,12 +252,29 @@ def trace_path(
     solid = np.flatnonzero(obs.penetration > FULL_CONTACT_PENETRATION)
     if solid.size:
         count = max(int(solid[0]), 1)
-        z, lam, tang, steps, its = z[:count], lam[:count], tang[:count], steps[:count], its[:count]
+        z, load_parameter, tang, steps, its = (
+            z[:count],
+            load_parameter[:count],
+            tang[:count],
+            steps[:count],
+            its[:count],
+        )
         obs = Observation(*(v[:count] for v in obs))
         status = PathStatus.FULL_CONTACT
     if method.locate_events and count > 1:
         for i in _sign_changes(obs.min_eigenvalue):
-            found = _locate(model, ctl, z[i], lam[i], z[i + 1], lam[i + 1], obs, i, method, weight)
+            found = _locate(
+                model,
+                ctl,
+                z[i],
+                load_parameter[i],
+                z[i + 1],
+                load_parameter[i + 1],
+                obs,
+                i,
+                method,
+                weight,
+            )
             if found is None:
                 continue
             zi, li, width = found
@@ -266,14 +291,16 @@ def trace_path(
                 )
             )
     if inserted:
-        z, lam, tang, steps, its, flags = _insert(z, lam, tang, steps, its, inserted)
-        obs = observe_batch(model.layout, model.params, z, _loads(ctl, lam))
+        z, load_parameter, tang, steps, its, flags = _insert(
+            z, load_parameter, tang, steps, its, inserted
+        )
+        obs = observe_batch(model.layout, model.params, z, _loads(ctl, load_parameter))
         idx = np.flatnonzero(flags)
         events = [
             Event(
                 e.kind,
                 int(k),
-                float(lam[k]),
+                float(load_parameter[k]),
                 float(obs.force[k]),
                 float(obs.displacement[k]),
                 e.tolerance,
@@ -281,7 +308,7 @@ def trace_path(
             for e, k in zip(events, idx, strict=True)
         ]
     else:
-        flags = np.zeros(len(lam), bool)
+        flags = np.zeros(len(load_parameter), bool)
 
     stats = PathStats(
         n_steps=count - 1,
@@ -291,12 +318,12 @@ def trace_path(
         smallest_step=float(steps[1:].min()) if count > 1 else float("nan"),
         largest_step=float(steps[1:].max()) if count > 1 else float("nan"),
     )
-    return Path.build(
+    path = Path.build(
         model=model,
         control=control,
         method=type(method).__name__,
         z=z,
-        load_parameter=lam,
+        load_parameter=load_parameter,
         observation=obs,
         event_flags=flags,
         events=tuple(events),
@@ -304,11 +331,16 @@ def trace_path(
         stats=stats,
         direction=tang[:, -1],
     )
+    if throw and not path.status.ok:
+        raise ConvergenceError(f"path under {control}: {path.message}")
+    return path
 
 
-def _loads(ctl: np.ndarray, lam: np.ndarray) -> Load:
-    lam = np.asarray(lam, dtype=float)
-    return Load(ctl[0] * lam, ctl[1] * lam, np.full_like(lam, ctl[2]))
+def _loads(ctl: np.ndarray, load_parameter: np.ndarray) -> Load:
+    load_parameter = np.asarray(load_parameter, dtype=float)
+    return Load(
+        ctl[0] * load_parameter, ctl[1] * load_parameter, np.full_like(load_parameter, ctl[2])
+    )
 
 
 def _sign_changes(lam_min: np.ndarray) -> list[int]:
@@ -366,7 +398,7 @@ def _locate(
         ok = np.asarray(out.converged)
         if not ok.any():
             return best
-        zc, lc = np.asarray(out.z)[ok], np.asarray(out.lam)[ok]
+        zc, lc = np.asarray(out.z)[ok], np.asarray(out.load_parameter)[ok]
         o = observe_batch(model.layout, model.params, zc, _loads(ctl, lc))
         a_ok = alpha[ok]
         same = np.sign(o.min_eigenvalue) == np.sign(f_a)
@@ -390,7 +422,7 @@ def _locate(
 
 def _insert(
     z: np.ndarray,
-    lam: np.ndarray,
+    load_parameter: np.ndarray,
     tang: np.ndarray,
     steps: np.ndarray,
     its: np.ndarray,
@@ -398,9 +430,9 @@ def _insert(
 ) -> tuple[np.ndarray, ...]:
     zs, ls, ts, ss, ii, fl = [], [], [], [], [], []
     at = {i: (zi, li) for i, zi, li in inserted}
-    for k in range(len(lam)):
+    for k in range(len(load_parameter)):
         zs.append(z[k])
-        ls.append(lam[k])
+        ls.append(load_parameter[k])
         ts.append(tang[k])
         ss.append(steps[k])
         ii.append(its[k])

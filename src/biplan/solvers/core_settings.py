@@ -4,32 +4,26 @@
 
 from __future__ import annotations
 
-import enum
 from typing import Any, NamedTuple
 
 from biplan._compile.setup import jnp
+from biplan._errors import ResultStatus
 
 __all__ = ["Settings", "Status"]
 
 Array = Any
 
 
-class Status(enum.Enum):
+class Status(ResultStatus):
     """Outcome of a solve."""
 
-    CONVERGED = 0
-    MAX_STEPS = 1
-    LINE_SEARCH_FAILED = 2
-    NONFINITE = 3
-
-    @property
-    def message(self) -> str:
-        return {
-            0: "converged",
-            1: "maximum number of Newton steps reached before the residual tolerance",
-            2: "neither the Newton line search nor Levenberg–Marquardt reduced the residual",
-            3: "the residual or the Newton step became non-finite",
-        }[self.value]
+    CONVERGED = 0, "converged", True
+    MAX_STEPS = 1, "maximum number of Newton steps reached before the residual tolerance"
+    LINE_SEARCH_FAILED = (
+        2,
+        "neither the Newton line search nor Levenberg–Marquardt reduced the residual",
+    )
+    NONFINITE = 3, "the residual or the Newton step became non-finite"
 
 
 class Settings(NamedTuple):

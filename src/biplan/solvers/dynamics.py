@@ -1,4 +1,4 @@
-"""Implicit dynamics of a tube: ``integrate(model, scheme, q0, v0, t_end, load=...)``.
+"""Implicit dynamics of a tube: ``integrate(model, method, start, load, t_end=...)``.
 
 The constrained equations of motion (SI Eq. governing, in Lagrangian form, MODEL §13)::
 
@@ -29,7 +29,13 @@ import numpy as np
 
 from biplan._compile.kernel import Kernel
 from biplan._compile.setup import jax, jnp
-from biplan._errors import ConfigError, check_finite, check_integer, check_range
+from biplan._errors import (
+    ConfigError,
+    ConvergenceError,
+    check_finite,
+    check_integer,
+    check_range,
+)
 from biplan.model.assembly import Load, Model
 from biplan.model.inertia import mass_matrix
 from biplan.solvers import _dynkernel as dk
@@ -220,27 +226,33 @@ def _initial_state(model: Model, z0: np.ndarray, v0: np.ndarray, load: Load) -> 
 
 def integrate(
     model: Model,
-    scheme: GeneralizedAlpha | None = None,
-    q0: Solution | np.ndarray | None = None,
+    method: GeneralizedAlpha | None = None,
+    start: Solution | np.ndarray | None = None,
+    load: LoadHistory | None = None,
+    *,
     v0: np.ndarray | None = None,
     t_end: float = 2.0,
-    load: LoadHistory | None = None,
+    throw: bool = False,
 ) -> Trajectory:
     """Integrate the equations of motion from t = 0 to ``t_end`` [s].
 
     Parameters
     ----------
     model : Model
-    scheme : GeneralizedAlpha, optional
-    q0 : Solution or ndarray, optional
+    method : GeneralizedAlpha (or its BackwardEuler), optional
+        Default ``GeneralizedAlpha()``.
+    start : Solution or ndarray, optional
         Start state (a converged Solution, or coordinates satisfying the guides); default the
         relaxed reference.
+    load : LoadHistory, optional
+        Default the paper's force ramp (0.8 N/s for 2 s).
     v0 : ndarray, optional
         Initial velocity q̇ (n_q,); default at rest.
     t_end : float
         Final time [s] > 0.
-    load : LoadHistory, optional
-        Default the paper's force ramp (0.8 N/s for 2 s).
+    throw : bool
+        Raise :class:`~biplan.ConvergenceError` instead of returning a trajectory whose status
+        is not ``ok`` (default ``False``, as for every driver).
 
     Returns
     -------
@@ -248,23 +260,23 @@ def integrate(
         Check ``trajectory.status``; on a failed step the trajectory ends at the last
         converged time.
     """
-    scheme = scheme or GeneralizedAlpha()
+    scheme = method or GeneralizedAlpha()
     load = load or LoadHistory.ramp()
     check_range("t_end", t_end, low=0.0)
     nq = model.n_coordinates
-    if q0 is None:
-        z0 = relaxed_reference(model).z
-    elif isinstance(q0, Solution):
-        if not q0.converged:
-            raise ConfigError("q0", q0.status.name, "a converged Solution")
-        z0 = np.asarray(q0.z, dtype=float)
+    if start is None:
+        z0 = relaxed_reference(model, throw=True).z
+    elif isinstance(start, Solution):
+        if not start.converged:
+            raise ConfigError("start", start.status.name, "a converged Solution")
+        z0 = np.asarray(start.z, dtype=float)
     else:
-        q = np.asarray(q0, dtype=float)
+        q = np.asarray(start, dtype=float)
         if q.shape != (nq,) or not np.all(np.isfinite(q)):
-            raise ConfigError("q0", q.shape, f"finite coordinates of shape ({nq},)")
+            raise ConfigError("start", q.shape, f"finite coordinates of shape ({nq},)")
         g = float(np.max(np.abs(model.constraints(q)), initial=0.0))
         if g > 1e-8:
-            raise ConfigError("q0", f"max |g| = {g:.2e} mm", "coordinates satisfying the guides")
+            raise ConfigError("start", f"max |g| = {g:.2e} mm", "coordinates satisfying the guides")
         z0 = model.pack(q)
     v = np.zeros(nq) if v0 is None else np.asarray(v0, dtype=float)
     if v.shape != (nq,) or not np.all(np.isfinite(v)):
@@ -329,8 +341,8 @@ def integrate(
     if not np.all(np.isfinite(z_all)):
         status = TrajectoryStatus.NONFINITE
     t_all = np.asarray(ts)
-    lam = load.value(t_all)
-    obs = observe_batch(model.layout, model.params, z_all, _load_at(ctl, lam))
+    load_parameter = load.value(t_all)
+    obs = observe_batch(model.layout, model.params, z_all, _load_at(ctl, load_parameter))
     kinetic = np.asarray(kins)
     force, zp = np.asarray(obs.force), np.asarray(obs.displacement)
     work = np.concatenate([[0.0], np.cumsum(0.5 * (force[1:] + force[:-1]) * np.diff(zp))])
@@ -348,11 +360,11 @@ def integrate(
         largest_step=float(dt.max()) if dt.size else float("nan"),
         max_constraint_residual=float(np.max(obs.constraint_residual)),
     )
-    common = observables(model, obs, lam)
-    return Trajectory(
+    common = observables(model, obs, load_parameter)
+    trajectory = Trajectory(
         model=model,
         control=control,
-        scheme=scheme.describe(),
+        method=scheme.describe(),
         time=t_all[keep],
         **{k: np.asarray(v)[keep] for k, v in common.items()},  # type: ignore[arg-type]
         kinetic_energy=kinetic[keep],
@@ -365,8 +377,15 @@ def integrate(
         status=status,
         stats=stats,
     )
+    if throw and not status.ok:
+        raise ConvergenceError(f"integration under {load}: {trajectory.message}")
+    return trajectory
 
 
-def _load_at(ctl: np.ndarray, lam: np.ndarray | float) -> Load:
-    lam = np.asarray(lam, dtype=float)
-    return Load(ctl[0] * lam, ctl[1] * lam, np.full_like(lam, ctl[2]) if lam.ndim else ctl[2])
+def _load_at(ctl: np.ndarray, load_parameter: np.ndarray | float) -> Load:
+    load_parameter = np.asarray(load_parameter, dtype=float)
+    return Load(
+        ctl[0] * load_parameter,
+        ctl[1] * load_parameter,
+        np.full_like(load_parameter, ctl[2]) if load_parameter.ndim else ctl[2],
+    )

@@ -264,7 +264,7 @@ def make_solution(
 
 def solve_equilibrium(
     model: Model,
-    solver: Newton | None = None,
+    method: Newton | None = None,
     start: Any = None,
     load: Load | None = None,
     *,
@@ -275,7 +275,7 @@ def solve_equilibrium(
     Parameters
     ----------
     model : Model
-    solver : Newton, optional
+    method : Newton, optional
         Defaults to ``Newton()``.
     start : array_like or Solution, optional
         q (n_q,), a packed z, or a previous Solution (warm start with its multipliers).
@@ -283,27 +283,28 @@ def solve_equilibrium(
     load : Load, optional
         Defaults to zero end force.
     throw : bool
-        Raise :class:`~biplan.ConvergenceError` instead of returning a failed Solution.
+        Raise :class:`~biplan.ConvergenceError` instead of returning a failed Solution
+        (default ``False``, as for every driver).
 
     Returns
     -------
     Solution
         Check ``solution.status``; a non-converged solution is never marked converged.
     """
-    solver = solver or Newton()
+    method = method or Newton()
     load = load or Load.of_force(0.0)
     if not isinstance(load, Load):
         raise ConfigError("load", load, "a biplan Load (Load.of_force / Load.of_displacement)")
     z0 = _start_vector(model, model.zeros() if start is None else start)
     loop = solve_loop.compiled(model.layout)
     jload = load.for_kernel()
-    out, data = loop(model.params, jnp.asarray(z0), jload, solver.settings())
+    out, data = loop(model.params, jnp.asarray(z0), jload, method.settings())
     steps, restarts = int(out.steps), 0
     q0, lam0, lam_c0, mu0 = model.split(z0)
-    if solver.contact_restart and int(out.status) != Status.CONVERGED.value and np.any(lam_c0):
+    if method.contact_restart and int(out.status) != Status.CONVERGED.value and np.any(lam_c0):
         # the start's contact multipliers can be smoothing artefacts (Newton.contact_restart)
         cold = model.pack(q0, lam0, None, mu0)
-        retry, retry_data = loop(model.params, jnp.asarray(cold), jload, solver.settings())
+        retry, retry_data = loop(model.params, jnp.asarray(cold), jload, method.settings())
         restarts, steps = 1, steps + int(retry.steps)
         if int(retry.status) == Status.CONVERGED.value:
             out, data = retry, retry_data
@@ -320,8 +321,9 @@ def solve_equilibrium(
 
 
 def relaxed_reference(
-    model: Model, solver: Newton | None = None, *, throw: bool = True
+    model: Model, method: Newton | None = None, *, throw: bool = False
 ) -> Solution:
     """The relaxed reference configuration q_ref: clamped base only, no load (SI "Numerical
-    solver"). Starts from q = 0, which is an equilibrium up to the contact regularisation."""
-    return solve_equilibrium(model, solver, model.zeros(), Load.of_force(0.0), throw=throw)
+    solver"). Starts from q = 0, which is an equilibrium up to the contact regularisation.
+    ``throw`` as for :func:`solve_equilibrium`."""
+    return solve_equilibrium(model, method, model.zeros(), Load.of_force(0.0), throw=throw)

@@ -101,9 +101,9 @@ def min_reduced_eigenvalue(k: Array, a: Array, active: Array) -> tuple[Array, Ar
     shift = jnp.sqrt(jnp.sum(k**2)) + 1.0
     both = null[:, None] & null[None, :]
     m = jnp.where(both, rot, 0.0) + jnp.diag(jnp.where(null, 0.0, shift))
-    lam = linalg.eigvalsh(m)[0]
+    min_eig = linalg.eigvalsh(m)[0]
     dof = n - rank
-    return jnp.where(dof > 0, lam, jnp.inf), dof
+    return jnp.where(dof > 0, min_eig, jnp.inf), dof
 
 
 def _active_rows(

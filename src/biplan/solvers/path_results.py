@@ -8,12 +8,12 @@ A path converts to an ``xarray.Dataset`` (dim ``step``) with
 
 from __future__ import annotations
 
-import enum
 from dataclasses import dataclass, field
 from typing import Any
 
 import numpy as np
 
+from biplan._errors import ResultStatus
 from biplan.model.assembly import Model
 from biplan.solvers.control import Control
 from biplan.solvers.observe import Observation
@@ -22,47 +22,36 @@ from biplan.solvers.results import OBSERVABLES, LabelledResult, display_units, o
 __all__ = ["Event", "Path", "PathStats", "PathStatus", "Snap"]
 
 
-class PathStatus(enum.Enum):
-    """Why a path ended."""
+class PathStatus(ResultStatus):
+    """Why a path ended (``ok``: it ended where it was asked to)."""
 
-    COMPLETED = 0
-    MAX_STEPS = 1
-    STALLED = 2
-    NONFINITE = 3
-    FULL_CONTACT = 4
-    RETURNED = 5
-    LIMIT_POINT = 6
-    SNAPPED = 7
-    NO_LANDING = 8
+    COMPLETED = 0, "reached the stop value", True
+    MAX_STEPS = 1, "stopped at the maximum number of steps"
+    STALLED = (
+        2,
+        "stalled: the step fell below min_step without a converged corrector "
+        "(a limit point of the controlled quantity under load stepping — use "
+        "ArcLength or dynamics — or the end of the admissible range, e.g. full contact)",
+    )
+    NONFINITE = 3, "a state became non-finite"
+    FULL_CONTACT = (
+        4,
+        "stopped at full contact: going on would press a closed fold past flat by "
+        "more than the contact compliance allows (the tube is closed solid; "
+        'docs/model.md, "Degenerate contacts")',
+    )
+    RETURNED = (
+        5,
+        "stopped where the path would have run back past its start value (the load "
+        "would have returned through the start, or changed sign)",
+    )
+    LIMIT_POINT = 6, "stopped past the first limit point of the load, as asked", True
+    SNAPPED = 7, "stopped at the first snap, as asked", True
+    NO_LANDING = 8, "no stable state found at the snap load (descent at fixed load failed)"
 
     @staticmethod
     def from_code(code: int) -> PathStatus:
         return PathStatus(code) if code in (0, 1, 2, 3, 5, 6) else PathStatus.STALLED
-
-    @property
-    def message(self) -> str:
-        return {
-            0: "reached the stop value",
-            1: "stopped at the maximum number of steps",
-            2: (
-                "stalled: the step fell below min_step without a converged corrector "
-                "(a limit point of the controlled quantity under load stepping — use "
-                "ArcLength or dynamics — or the end of the admissible range, e.g. full contact)"
-            ),
-            3: "a state became non-finite",
-            4: (
-                "stopped at full contact: going on would press a closed fold past flat by "
-                "more than the contact compliance allows (the tube is closed solid; "
-                'docs/model.md, "Degenerate contacts")'
-            ),
-            5: (
-                "stopped where the path would have run back past its start value (the load "
-                "would have returned through the start, or changed sign)"
-            ),
-            6: "stopped past the first limit point of the load, as asked",
-            7: "stopped at the first snap, as asked",
-            8: "no stable state found at the snap load (descent at fixed load failed)",
-        }[self.value]
 
 
 @dataclass(frozen=True)

@@ -70,7 +70,7 @@ UNITS = {
     "circular_energy": "N mm",
     "fold_energy": "N mm",
     "phase_fraction": "1",
-    "min_eigenvalue": "N mm",
+    "min_eigenvalue": "N mm",  # per unit q² (q mixes mm and rad): N·mm on rotations
     "stable": "1",
     "q": "mm or rad",
     "constraint_residual": "mm",
@@ -93,7 +93,7 @@ def fold_names(model: Model) -> list[str]:
 def observables(model: Model, obs: Observation, control_value: np.ndarray) -> dict[str, np.ndarray]:
     """The :data:`OBSERVABLES` of the states observed in ``obs`` (one row per state), with the
     load parameter Λ ``control_value`` [N, mm or MPa]: name → array (NumPy)."""
-    lam = np.asarray(obs.min_eigenvalue, dtype=float)
+    min_eig = np.asarray(obs.min_eigenvalue, dtype=float)
     n_h = model.layout.n_modules
     fe = np.asarray(obs.fold_energy)
     return {
@@ -107,8 +107,8 @@ def observables(model: Model, obs: Observation, control_value: np.ndarray) -> di
         "circular_energy": fe[:, n_h:].sum(axis=1),
         "fold_energy": fe,
         "phase_fraction": np.asarray(obs.phase_fraction, float),
-        "min_eigenvalue": lam,
-        "stable": (lam > STABILITY_TOL),
+        "min_eigenvalue": min_eig,
+        "stable": (min_eig > STABILITY_TOL),
         "constraint_residual": np.asarray(obs.constraint_residual, float),
         "load_parameter": np.asarray(control_value, float),
     }

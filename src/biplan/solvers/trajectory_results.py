@@ -7,12 +7,12 @@ A trajectory converts to an ``xarray.Dataset`` (dim ``time``) with
 
 from __future__ import annotations
 
-import enum
 from dataclasses import dataclass, field
 from typing import Any
 
 import numpy as np
 
+from biplan._errors import ResultStatus
 from biplan.model.assembly import Model
 from biplan.solvers.control import Control
 from biplan.solvers.results import ENERGY_BALANCE, OBSERVABLES, LabelledResult
@@ -20,20 +20,12 @@ from biplan.solvers.results import ENERGY_BALANCE, OBSERVABLES, LabelledResult
 __all__ = ["Trajectory", "TrajectoryStats", "TrajectoryStatus"]
 
 
-class TrajectoryStatus(enum.Enum):
+class TrajectoryStatus(ResultStatus):
     """Why a time integration ended."""
 
-    COMPLETED = 0
-    STEP_FAILED = 1
-    NONFINITE = 2
-
-    @property
-    def message(self) -> str:
-        return {
-            0: "reached t_end",
-            1: "a time step did not converge even at the smallest step",
-            2: "the state became non-finite",
-        }[self.value]
+    COMPLETED = 0, "reached t_end", True
+    STEP_FAILED = 1, "a time step did not converge even at the smallest step"
+    NONFINITE = 2, "the state became non-finite"
 
 
 @dataclass(frozen=True)
@@ -67,7 +59,7 @@ class Trajectory(LabelledResult):
 
     model: Model = field(repr=False)
     control: Control
-    scheme: str
+    method: str
     time: np.ndarray
     load_parameter: np.ndarray
     force: np.ndarray
@@ -109,7 +101,7 @@ class Trajectory(LabelledResult):
         return {n: getattr(self, n) for n in names}
 
     def _attrs(self) -> dict[str, Any]:
-        return {"scheme": self.scheme, "status": self.status.name, "message": self.message}
+        return {"method": self.method, "status": self.status.name, "message": self.message}
 
     def to_dataset(self) -> Any:
         ds = super().to_dataset()

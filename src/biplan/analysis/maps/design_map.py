@@ -203,11 +203,11 @@ def _path(
         ok = alive & (out.status == Status.CONVERGED.value) & jnp.all(jnp.isfinite(out.z))
         q = out.z[:nq]
         end = chain.endpoint(layout, p.geometry, q)
-        lam = kkt_min_eigenvalue(layout, out.z, out.jac, contact_gaps(layout, p, q), load, weak)
+        min_eig = kkt_min_eigenvalue(layout, out.z, out.jac, contact_gaps(layout, p, q), load, weak)
         first_bad = jnp.where(alive & ~ok, out.status, -1)
         z_next = jnp.where(ok, out.z, z)
         jac_next = jnp.where(ok, out.jac, jac)
-        rec = (ok, first_bad, end.u_z, end.u_r, load_height(layout, p, q), lam)
+        rec = (ok, first_bad, end.u_z, end.u_r, load_height(layout, p, q), min_eig)
         return (z_next, jac_next, ok), rec
 
     jac0 = kkt_jacobian(layout, p, z0, Load(forces[0], zero, zero))
@@ -229,7 +229,7 @@ def _summarise(
     u_z: np.ndarray,
     u_r: np.ndarray,
     zp: np.ndarray,
-    lam: np.ndarray,
+    min_eig: np.ndarray,
     l0: np.ndarray,
 ) -> dict[str, np.ndarray]:
     """Per point (rows) from per-step (columns) records of the ramp."""
@@ -247,7 +247,7 @@ def _summarise(
         for k in range(2, ok.shape[1]):
             mean = float(np.mean(dz[: k - 1]))
             snap[k] = ok[i, k] and dz[k - 1] > ramp.snap_factor * max(mean, 1e-12)
-        unstable = ok[i] & (lam[i] <= 0.0)
+        unstable = ok[i] & (min_eig[i] <= 0.0)
         flagged = np.flatnonzero(unstable | snap | ~ok[i])
         if flagged.size:
             lost_step[i] = int(flagged[0])
@@ -258,7 +258,7 @@ def _summarise(
         "u_r": np.where(good, u_r[:, -1] / l0, nan),
         "stability_lost": np.where(good, (lost_step >= 0).astype(float), nan),
         "time_lost": np.where(lost_step >= 0, times[np.maximum(lost_step, 0)], nan),
-        "min_eigenvalue": np.where(good, np.min(np.where(ok, lam, np.inf), axis=1), nan),
+        "min_eigenvalue": np.where(good, np.min(np.where(ok, min_eig, np.inf), axis=1), nan),
         "status": status,
         "dynamic": np.zeros(n, dtype=np.int64),
     }
@@ -268,7 +268,7 @@ def _finish_after_snap(
     ramp: ForceRamp,
     model: Model,
     ok: np.ndarray,
-    lam: np.ndarray,
+    min_eig: np.ndarray,
     z_last: np.ndarray,
     res: dict[str, np.ndarray],
     row: int,
@@ -285,7 +285,7 @@ def _finish_after_snap(
         damping_ratio=ramp.damping_ratio, time_step=ramp.time_step,
         spectral_radius=ramp.spectral_radius,
     )  # fmt: skip
-    res["dynamic"][row] = 2 if traj.scheme.startswith("backward-euler") else 1
+    res["dynamic"][row] = 2 if traj.method.startswith("backward-euler") else 1
     if not traj.completed:
         return
     l0 = model.tube.initial_length
@@ -293,7 +293,7 @@ def _finish_after_snap(
     res["u_z"][row] = traj.u_z[-1] / l0
     res["u_r"][row] = traj.u_r[-1] / l0
     res["stability_lost"][row] = 1.0
-    res["min_eigenvalue"][row] = min(float(np.min(lam[ok])), float(traj.min_eigenvalue[-1]))
+    res["min_eigenvalue"][row] = min(float(np.min(min_eig[ok])), float(traj.min_eigenvalue[-1]))
 
 
 @dataclass(frozen=True)
@@ -350,13 +350,13 @@ class ResponseEvaluator:
         """Batched ramp of ``tubes``: one compiled call per layout, padded to ``batch``."""
         n = len(tubes)
         out: dict[str, np.ndarray] | None = None
-        for part, models, (ok, bad, uz, ur, zp, lam), z_last in ramp_batches(
+        for part, models, (ok, bad, uz, ur, zp, min_eig), z_last in ramp_batches(
             tubes, self.ramp, batch
         ):
             l0 = np.asarray([tubes[i].initial_length for i in part])
-            res = _summarise(self.ramp, ok, bad, uz, ur, zp, lam, l0)
+            res = _summarise(self.ramp, ok, bad, uz, ur, zp, min_eig, l0)
             for row in range(len(part)):
-                _finish_after_snap(self.ramp, models[row], ok[row], lam[row], z_last[row], res,
+                _finish_after_snap(self.ramp, models[row], ok[row], min_eig[row], z_last[row], res,
                                    row)  # fmt: skip
             if out is None:
                 out = {k: np.empty((n, *v.shape[1:]), v.dtype) for k, v in res.items()}

@@ -105,7 +105,7 @@ def ramp_curves(tubes: Sequence[Tube], ramp: ForceRamp, batch: int = 16) -> list
                     np.asarray(traj.force)[thin],
                     np.asarray(traj.displacement)[thin],
                     np.asarray(traj.q)[-1] if traj.completed else curve.q,
-                    2 if traj.scheme.startswith("backward-euler") else 1,
+                    2 if traj.method.startswith("backward-euler") else 1,
                     bool(traj.completed),
                 )
             curves[i] = curve

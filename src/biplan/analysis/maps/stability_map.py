@@ -56,7 +56,12 @@ import numpy as np
 from biplan._compile.kernel import kernel
 from biplan._compile.setup import jax, jnp
 from biplan.analysis.maps.design_map import stack_params
-from biplan.analysis.maps.stability_search import Solutions, StabilitySearch, same_equilibrium
+from biplan.analysis.maps.stability_search import (
+    Continuation,
+    Solutions,
+    StabilitySearch,
+    same_equilibrium,
+)
 from biplan.analysis.maps.stability_seeds import max_seeds, pushing, seeds
 from biplan.geometry.layout import TubeLayout
 from biplan.model.assembly import Load, Model
@@ -138,9 +143,9 @@ class StabilityEvaluator:
             "atol": s.atol,
             "max_steps": s.max_steps,
             "max_backtracks": s.max_backtracks,
-            "continuation": s.continuation,
+            "continuation": s.continuation.value,
             "seed_spacing": s.seed_spacing,
-            "seeding": s.seeding,
+            "seeding": s.seeding.value,
             "continuation_steps": s.continuation_steps,
             "stability_tol": STABILITY_TOL,
         }
@@ -248,7 +253,9 @@ class StabilityEvaluator:
 
         def solve(rows: list[int], z0: list[np.ndarray], cont: bool) -> list[np.ndarray]:
             r = np.asarray(rows, dtype=int)
-            lanes = s.march_lanes if cont and s.continuation == "march" else s.solve_batch
+            lanes = (
+                s.march_lanes if cont and s.continuation is Continuation.MARCH else s.solve_batch
+            )
             sols = self._solve_all(layout, params, r, np.asarray(z0), np.asarray(u)[r],
                                    capacity, lanes, s.newton(cont))  # fmt: skip
             acc.add(r, sols)
@@ -283,7 +290,7 @@ class StabilityEvaluator:
         # enter them (its closing contacts start without multipliers)
         fixed_seeds(seeded, pressed_elsewhere=True)
         # 2. continuation along the displacement axis
-        if s.continuation == "neighbours":
+        if s.continuation is Continuation.NEIGHBOURS:
             rows, z0 = [], []
             for row in rows_of:
                 for pos, j in enumerate(row):
@@ -353,7 +360,7 @@ class StabilityEvaluator:
         k = min(n_eq, self.search.max_equilibria)
         out["energy"][i, :k] = f["energy"][:k]
         out["stable"][i, :k] = f["stable"][:k]
-        out["min_eigenvalue"][i, :k] = f["lam"][:k]
+        out["min_eigenvalue"][i, :k] = f["min_eig"][:k]
         out["force"][i, :k] = f["force"][:k]
         out["u_z"][i, :k] = f["u_z"][:k] / l0
         out["u_r"][i, :k] = f["u_r"][:k] / l0

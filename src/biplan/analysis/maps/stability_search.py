@@ -9,32 +9,31 @@ their distinct equilibria (lowest energy first) by the one closeness test
 
 from __future__ import annotations
 
+import enum
 from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
 
 from biplan._errors import ConfigError, check_integer, check_range
+from biplan.analysis.maps.stability_seeds import MAX_SUBSET_FOLDS, Seeding
 from biplan.solvers.newton import Newton
 from biplan.solvers.observe import STABILITY_TOL
 
 __all__ = [
-    "CONTINUATIONS",
     "MAX_SUBSET_FOLDS",
-    "SEEDINGS",
+    "Continuation",
     "Solutions",
     "StabilitySearch",
     "same_equilibrium",
 ]
 
-#: Continuation modes of :class:`StabilitySearch`.
-CONTINUATIONS = ("march", "neighbours")
 
-#: Seedings of :class:`StabilitySearch` (:func:`~biplan.analysis.maps.stability_seeds.seeds`).
-SEEDINGS = ("subsets", "patterns")
+class Continuation(enum.StrEnum):
+    """How :class:`StabilitySearch` carries equilibria between the points of a row."""
 
-#: Largest ``StabilitySearch.max_subset_folds``: 2^12 = 4096 seeds per seeded point.
-MAX_SUBSET_FOLDS = 12
+    MARCH = "march"  #: point by point along the displacement axis, forward then backward
+    NEIGHBOURS = "neighbours"  #: one pass from the two neighbouring points
 
 
 @dataclass(frozen=True)
@@ -59,17 +58,17 @@ class StabilitySearch:
     solve_batch : int
         Lanes of the solve pool (:func:`biplan.solvers.pool.newton_pool`: solves in flight,
         a finished lane takes the next seed) for the fixed seeds, ≥ 1.
-    continuation : {"march", "neighbours"}
-        "march" (default): the stable equilibria are continued point by point along the
+    continuation : Continuation
+        ``MARCH`` (default): the stable equilibria are continued point by point along the
         displacement axis, forward through each row and then backward from the equilibria
-        that the forward sweep did not reach; "neighbours": one continuation pass from the
+        that the forward sweep did not reach; ``NEIGHBOURS``: one continuation pass from the
         stable equilibria of the two neighbouring points (the previous default, with
         the fixed seeds at every point).
     seed_spacing : float
         Largest distance in U/l₀ between two points of a row that get the fixed seeds (the
         first and last point always do; the march carries the branches to the points in
         between; a grid coarser than this seeds every point, and so does 0). Default 0.04:
-        every fourth point of a grid with ΔU/l₀ = 0.01. With "neighbours" use 0 (points
+        every fourth point of a grid with ΔU/l₀ = 0.01. With ``NEIGHBOURS`` use 0 (points
         without seeds would see only their neighbours' states). A point where nothing
         converged gets the fixed seeds after the march.
     march_lanes : int
@@ -80,14 +79,14 @@ class StabilitySearch:
     continuation_steps : int
         Newton iterations per continuation solve (measured on an 8 × 40 check grid: 6 lose
         equilibria at 30 of the 320 points, 10 at 13, 15 at none).
-    seeding : {"subsets", "patterns"}
-        The fixed seeds (:func:`~biplan.analysis.maps.stability_seeds.seeds`). "subsets"
+    seeding : Seeding
+        The fixed seeds (:func:`~biplan.analysis.maps.stability_seeds.seeds`). ``SUBSETS``
         (default): one per subset of the circular folds, 2^N_c, for tubes with at most
-        ``max_subset_folds`` circular folds (more use "patterns"); "patterns": the 3 N_c − 2
+        ``max_subset_folds`` circular folds (more use ``PATTERNS``); ``PATTERNS``: the 3 N_c − 2
         patterns of earlier versions, which find only the combinations of open folds next to
         the base or the free end.
     max_subset_folds : int
-        Most circular folds for which "subsets" seeds every subset (2^8 = 256 seeds), from 1
+        Most circular folds for which ``SUBSETS`` seeds every subset (2^8 = 256 seeds), from 1
         to :data:`MAX_SUBSET_FOLDS` = 12.
     """
 
@@ -97,11 +96,11 @@ class StabilitySearch:
     max_steps: int = 15
     max_backtracks: int = 4
     solve_batch: int = 16
-    continuation: str = "march"
+    continuation: Continuation = Continuation.MARCH
     seed_spacing: float = 0.04
     march_lanes: int = 16
     continuation_steps: int = 15
-    seeding: str = "subsets"
+    seeding: Seeding = Seeding.SUBSETS
     max_subset_folds: int = 8
 
     def __post_init__(self) -> None:
@@ -111,10 +110,12 @@ class StabilitySearch:
             object.__setattr__(
                 self, name, check_integer(f"search.{name}", getattr(self, name), low=1)
             )
-        if self.continuation not in CONTINUATIONS:
-            raise ConfigError("search.continuation", self.continuation, f"one of {CONTINUATIONS}")
-        if self.seeding not in SEEDINGS:
-            raise ConfigError("search.seeding", self.seeding, f"one of {SEEDINGS}")
+        for name, choice in (("continuation", Continuation), ("seeding", Seeding)):
+            value = getattr(self, name)
+            if value not in set(choice):
+                valid = "one of " + ", ".join(c.value for c in choice)
+                raise ConfigError(f"search.{name}", value, valid)
+            object.__setattr__(self, name, choice(value))
         if self.max_subset_folds > MAX_SUBSET_FOLDS:
             valid = f"an integer from 1 to {MAX_SUBSET_FOLDS} (2^N seeds per point)"
             raise ConfigError("search.max_subset_folds", self.max_subset_folds, valid)
@@ -122,11 +123,11 @@ class StabilitySearch:
         check_range("search.seed_spacing", self.seed_spacing, low=0.0, low_open=False)
         self.newton()
 
-    def seed_kind(self, n_circular: int) -> str:
+    def seed_kind(self, n_circular: int) -> Seeding:
         """The seeding used for a tube with ``n_circular`` circular folds."""
-        if self.seeding == "subsets" and n_circular <= self.max_subset_folds:
-            return "subsets"
-        return "patterns"
+        if self.seeding is Seeding.SUBSETS and n_circular <= self.max_subset_folds:
+            return Seeding.SUBSETS
+        return Seeding.PATTERNS
 
     def newton(self, continuation: bool = False) -> Newton:
         """Newton settings of the fixed seeds, or of the continuation seeds."""
@@ -171,14 +172,14 @@ class Solutions:
             sel = [
                 np.flatnonzero((r == j) & s[1]) for r, s in zip(self.rows, self.sols, strict=True)
             ]
-            z, energy, lam, uz, ur, force = (
+            z, energy, min_eig, uz, ur, force = (
                 np.concatenate([s[k][i] for s, i in zip(self.sols, sel, strict=True)])
                 for k in (0, 2, 3, 4, 5, 6)
             )
             keep = _distinct(z, energy, self.nq, self.tol)
-            stable = lam[keep] > STABILITY_TOL
+            stable = min_eig[keep] > STABILITY_TOL
             self._cache[j] = {
-                "z": z[keep], "energy": energy[keep], "lam": lam[keep], "u_z": uz[keep],
+                "z": z[keep], "energy": energy[keep], "min_eig": min_eig[keep], "u_z": uz[keep],
                 "u_r": ur[keep], "force": force[keep], "stable": stable,
                 "z_stable": z[keep][stable],
             }  # fmt: skip

@@ -10,6 +10,7 @@ test; :func:`max_seeds` bounds the count.
 
 from __future__ import annotations
 
+import enum
 import itertools
 from typing import Any
 
@@ -19,10 +20,28 @@ from biplan.model.assembly import Model
 from biplan.model.tube import Tube
 from biplan.solvers.observe import ACTIVE_GAP
 
-__all__ = ["PRESS", "max_seeds", "pushing", "seeds"]
+__all__ = [
+    "PRESS",
+    "Seeding",
+    "max_seeds",
+    "pushing",
+    "seeds",
+]
 
 #: Contact multiplier [N/mm] of the closed contacts of a "pressed" seed (:func:`seeds`).
 PRESS = 1e-3
+
+
+class Seeding(enum.StrEnum):
+    """The fixed seeds of :class:`StabilitySearch`
+    (:func:`~biplan.analysis.maps.stability_seeds.seeds`)."""
+
+    SUBSETS = "subsets"  #: one per subset of the circular folds (2^N_c)
+    PATTERNS = "patterns"  #: the 3 N_c − 2 patterns next to the base or the free end
+
+
+#: Largest ``StabilitySearch.max_subset_folds``: 2^12 = 4096 seeds per seeded point.
+MAX_SUBSET_FOLDS = 12
 
 
 def pushing(tube: Tube, u: np.ndarray) -> np.ndarray:
@@ -42,7 +61,7 @@ def pushing(tube: Tube, u: np.ndarray) -> np.ndarray:
 def seeds(
     model: Model,
     u: float,
-    kind: str = "subsets",
+    kind: Seeding = Seeding.SUBSETS,
     pressed_only: bool = False,
     pushes: np.ndarray | None = None,
 ) -> np.ndarray:
@@ -71,7 +90,7 @@ def seeds(
     n_circ = model.tube.n_circular
     first = nq - n_circ
     patterns: list[np.ndarray]
-    if kind == "subsets":
+    if kind == Seeding.SUBSETS:
         patterns = [
             np.isin(np.arange(n_circ), c).astype(float)
             for k in range(n_circ + 1)
@@ -105,7 +124,7 @@ def seeds(
     return np.asarray(out).reshape(-1, n_z)
 
 
-def max_seeds(n_circular: int, kind: str) -> int:
+def max_seeds(n_circular: int, kind: Seeding) -> int:
     """Most starts :func:`seeds` returns for ``n_circular`` folds (pressed ones included)."""
-    n = 2**n_circular if kind == "subsets" else 3 * n_circular - 2
+    n = 2**n_circular if kind == Seeding.SUBSETS else 3 * n_circular - 2
     return 2 * n

@@ -158,12 +158,12 @@ def load_response(
         pieces.append(head)
         offset = sum(p.n_steps for p in pieces) - 1
         critical, tolerance = _critical(stretch, k, end)
-        lam, force, before = (
+        load_parameter, force, before = (
             float(head.load_parameter[-1]), float(head.force[-1]), float(head.displacement[-1])
         )  # fmt: skip
         if stop_at_snap or len(snaps) >= max_snaps:
             snaps.append(
-                Snap(offset, lam, force, before, float("nan"), critical, (),
+                Snap(offset, load_parameter, force, before, float("nan"), critical, (),
                      "not computed (stopped at the snap)", tolerance)
             )  # fmt: skip
             status = PathStatus.SNAPPED if stop_at_snap else PathStatus.MAX_STEPS
@@ -174,7 +174,9 @@ def load_response(
             break
         current, lam_start = landed
         after = float(current.displacement)
-        snaps.append(Snap(offset, lam, force, before, after, critical, (), LANDING, tolerance))
+        snaps.append(
+            Snap(offset, load_parameter, force, before, after, critical, (), LANDING, tolerance)
+        )
     result = _join(pieces, tuple(snaps), status)
     return replace(result, snaps=tuple(_with_folds(result, s) for s in result.snaps))
 
@@ -264,13 +266,15 @@ def _land(
     The descents (:func:`_directions`) start at state ``k`` displaced by :data:`KICK`, at its
     load; if none leaves ``k``, they are repeated at loads nudged toward the stop value by
     :data:`LOAD_NUDGES`, where state ``k`` is no longer an equilibrium."""
-    lam = float(path.load_parameter[k])
-    origin = solve_equilibrium(model, solver, path.z[k], control.load(model, lam))
+    load_parameter = float(path.load_parameter[k])
+    origin = solve_equilibrium(model, solver, path.z[k], control.load(model, load_parameter))
     if not origin.converged:
         return None
     directions = _directions(model, control, path, k, end, solver, origin)
     for nudge in LOAD_NUDGES:
-        value = lam + nudge * max(abs(lam), 1.0) * float(np.sign(control.stop - lam))
+        value = load_parameter + nudge * max(abs(load_parameter), 1.0) * float(
+            np.sign(control.stop - load_parameter)
+        )
         load = control.load(model, value)
         best: Solution | None = None
         for d in directions:

@@ -268,7 +268,7 @@ def _advance(
 def displacement_sweep(
     model: Model,
     displacements: np.ndarray,
-    solver: Newton | None = None,
+    method: Newton | None = None,
     start: Solution | None = None,
     *,
     select_stable: bool = True,
@@ -281,7 +281,7 @@ def displacement_sweep(
     model : Model
     displacements : array_like
         Finite load-point displacements U [mm], in the order to visit.
-    solver : Newton, optional
+    method : Newton, optional
         Default ``Newton(max_backtracks=SUB_BACKTRACKS)``: a step past a vanished branch (a
         snap) fails, and with 30 halvings a failure cost up to 2 × 60 × 31 residuals and
         Jacobians (docs/performance.md, "Fail-fast Newton at snaps"); converged steps are the same.
@@ -301,12 +301,12 @@ def displacement_sweep(
     u = np.asarray(displacements, dtype=float).ravel()
     if u.size == 0 or not np.all(np.isfinite(u)):
         raise ConfigError("displacements", displacements, "a non-empty array of finite mm values")
-    solver = solver or Newton(max_backtracks=SUB_BACKTRACKS)
-    current = start if start is not None else relaxed_reference(model, solver)
+    method = method or Newton(max_backtracks=SUB_BACKTRACKS)
+    current = start if start is not None else relaxed_reference(model, method, throw=True)
     rows: list[tuple] = []
     sols: list[Solution] = []
     for target in u:
-        sol, stab, switched = _advance(model, solver, current, float(target), select_stable)
+        sol, stab, switched = _advance(model, method, current, float(target), select_stable)
         if sol.converged and stab is not None:
             current = sol
             e = sol.data.endpoint  # evaluated by the solve with the rest of the state

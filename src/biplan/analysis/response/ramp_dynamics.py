@@ -84,7 +84,7 @@ def continue_ramp(
         generalized-α step fails even at the smallest step (a cascade of contact impacts),
         the run is redone from ``z`` with :class:`~biplan.solvers.dynamics.BackwardEuler`
         (same h and α_R): first order and strongly dissipative, it ends every impact
-        inelastically. ``trajectory.scheme`` names the scheme that produced the result.
+        inelastically. ``trajectory.method`` names the scheme that produced the result.
     """
     f_start = rate * t_start
     start = make_solution(model, np.asarray(z), Load.of_force(f_start), Status.CONVERGED, 0.0, 0)

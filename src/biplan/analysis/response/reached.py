@@ -53,7 +53,9 @@ def reached_state(model: Model, load: Load) -> Solution:
     if load.is_displacement_controlled:
         u = float(load.displacement)
         n = max(math.ceil(abs(u) / SWEEP_STEP), 1)
-        path = displacement_sweep(model, np.linspace(u / n, u, n), start=relaxed_reference(model))
+        path = displacement_sweep(
+            model, np.linspace(u / n, u, n), start=relaxed_reference(model, throw=True)
+        )
         last = path.solutions[-1]
         if not last.converged:
             raise ConvergenceError(f"the displacement sweep failed at U = {u:g} mm: {last.message}")
@@ -61,7 +63,7 @@ def reached_state(model: Model, load: Load) -> Solution:
     else:
         f = float(load.force)
         if f == 0.0:
-            return relaxed_reference(model, solver)
+            return relaxed_reference(model, solver, throw=True)
         response = load_response(model, Control.force(f))
         if not response.completed:
             raise ConvergenceError(

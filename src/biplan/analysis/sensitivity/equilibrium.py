@@ -62,7 +62,7 @@ from biplan.solvers.newton import Solution
 
 __all__ = [
     "AngleParameter",
-    "Method",
+    "Mode",
     "Observable",
     "Parameter",
     "ParameterSet",
@@ -123,8 +123,8 @@ _ROWS = (
 SIMPLE_GAP = 1e-8
 
 
-class Method(enum.Enum):
-    """Linear solves of the implicit derivative."""
+class Mode(enum.Enum):
+    """Mode of the implicit derivative's linear solves (as forward/reverse-mode AD)."""
 
     AUTO = "auto"  # adjoint when fewer observables than parameters
     ADJOINT = "adjoint"  # one solve with Jᵀ per observable
@@ -308,7 +308,7 @@ def total_derivatives(
     state: Solution,
     parameters: ParameterSet,
     weights: tuple[np.ndarray, np.ndarray] | None = None,
-    method: Method = Method.AUTO,
+    mode: Mode = Mode.AUTO,
     rows: tuple[Observable, ...] = _ROWS,
 ) -> tuple[np.ndarray, np.ndarray]:
     """(y, dy/dv): the kernel's observables ``rows`` and their total derivatives (n, n_par)
@@ -330,7 +330,7 @@ def total_derivatives(
         y_z, y_v = np.vstack([y_z, np.asarray(e_z)]), np.vstack([y_v, np.asarray(e_v)])
     pick = [_ROWS.index(o) for o in rows]
     y, y_z, y_v = y[pick], y_z[pick], y_v[pick]
-    adjoint = method is Method.ADJOINT or (method is Method.AUTO and len(pick) < r_v.shape[1])
+    adjoint = mode is Mode.ADJOINT or (mode is Mode.AUTO and len(pick) < r_v.shape[1])
     try:
         if adjoint:
             psi = np.linalg.solve(jac.T, y_z.T)
@@ -350,7 +350,7 @@ def sensitivity(
     *,
     angle: AngleParameter | str = AngleParameter.HELICAL_ANGLE,
     per_fold: bool = False,
-    method: Method | str = Method.AUTO,
+    mode: Mode | str = Mode.AUTO,
 ) -> Sensitivity:
     """Derivatives of observables of an equilibrium with respect to design parameters.
 
@@ -368,7 +368,7 @@ def sensitivity(
         β (``helical_angle``, degrees) or ``b`` as the crease-angle parameter.
     per_fold : bool
         Every fold's law as its own parameters.
-    method : Method
+    mode : Mode
         ``auto`` (adjoint when fewer observables than parameters), ``adjoint`` or ``direct``.
 
     Returns
@@ -390,14 +390,14 @@ def sensitivity(
             raise ConfigError(
                 "observables", "min_eigenvalue", "left out at a contact-locked state (no H_r)"
             )
-        lam, gap = found[2], found[3]
-        if gap <= SIMPLE_GAP * max(abs(lam), 1.0):
+        min_eig, gap = found[2], found[3]
+        if gap <= SIMPLE_GAP * max(abs(min_eig), 1.0):
             raise ConfigError(
                 "observables", "min_eigenvalue",
-                f"left out where λ_min = {lam:.6g} is repeated (gap {gap:.2g}: no derivative)",
+                f"left out where λ_min = {min_eig:.6g} is repeated (gap {gap:.2g}: no derivative)",
             )  # fmt: skip
         weights = found[:2]
-    y, dy = total_derivatives(model, state, pset, weights, Method(method), obs)
+    y, dy = total_derivatives(model, state, pset, weights, Mode(mode), obs)
     return Sensitivity(obs, tuple(pset.parameters[j] for j in cols), y, dy[:, cols], state)
 
 

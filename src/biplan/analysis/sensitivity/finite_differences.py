@@ -56,7 +56,7 @@ def finite_differences(
     parameters: tuple[str, ...] | None = None,
     *,
     relative_step: float = 1e-4,
-    solver: Newton | None = None,
+    method: Newton | None = None,
     angle: AngleParameter | str = AngleParameter.HELICAL_ANGLE,
     per_fold: bool = False,
 ) -> Sensitivity:
@@ -69,7 +69,7 @@ def finite_differences(
         Step h = relative_step · max(|p|, 1) [parameter unit]. The default balances the
         truncation error (∝ h²) against the re-solves' rounding (∝ 1/h): on the test designs
         it gives the implicit derivatives to ~1e-6 relative, against ~1e-5 at 1e-5 or 1e-3.
-    solver : Newton, optional
+    method : Newton, optional
         Default ``Newton(atol=1e-13)``.
 
     Raises
@@ -78,11 +78,11 @@ def finite_differences(
         If a re-solve fails (it names the parameter and value).
     """
     obs, pset, cols = request(model, state, observables, parameters, angle, per_fold)
-    solver = solver or Newton(atol=1e-13)
+    method = method or Newton(atol=1e-13)
 
     def resolve(v: np.ndarray) -> np.ndarray:
         moved, load = pset.model_at(model, v)
-        sol = solve_equilibrium(moved, solver, state.z, load)
+        sol = solve_equilibrium(moved, method, state.z, load)
         if not sol.converged:
             raise ConvergenceError(
                 f"finite-difference re-solve at {_where(pset, v)}: {sol.message}"

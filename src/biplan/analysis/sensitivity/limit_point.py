@@ -111,7 +111,7 @@ def locate_limit_point(
     *,
     up_to: float = PEAK_SEARCH_FORCE,
     tolerance: float = 1e-10,
-    solver: Newton | None = None,
+    method: Newton | None = None,
 ) -> LimitPoint:
     """The first loss of stability under force control, located by Newton's method on
     λ_min^F(z(U)) = 0 along the displacement-controlled branch (module docstring).
@@ -126,7 +126,7 @@ def locate_limit_point(
     tolerance : float
         |λ_min^F| at which the search stops [H_r units] (it stops too when the Newton step
         on U falls below :data:`STEP_TOLERANCE` relative).
-    solver : Newton, optional
+    method : Newton, optional
         Default ``Newton(atol=1e-13)``.
 
     Returns
@@ -139,14 +139,14 @@ def locate_limit_point(
         No snap below ``up_to``; a solve on the branch failed; the state is contact-locked;
         or λ_min^F does not reach zero smoothly (a kink or contact change ends the branch).
     """
-    solver = solver or Newton(atol=1e-13)
+    method = method or Newton(atol=1e-13)
     if start is not None and not start.load.is_displacement_controlled:
         raise ConfigError("start", "force control", "a displacement-controlled Solution")
     state = _start(model, up_to) if start is None else start
     z, u = state.z, float(state.load.displacement)
     u_good, step, halvings = u, 0.0, 0
     for it in range(MAX_ITERATIONS + 1):
-        trial = solve_equilibrium(model, solver, z, Load.of_displacement(u))
+        trial = solve_equilibrium(model, method, z, Load.of_displacement(u))
         if not trial.converged:
             # past the branch's own turn in U (a snap-back): no equilibrium there; shorter
             # steps from the last converged state (the limit point of F comes before it)

@@ -20,14 +20,13 @@ The barrier is ΔE_forward = Π(saddle) − Π(start) and ΔE_backward = Π(sadd
 
 from __future__ import annotations
 
-import enum
 from collections.abc import Iterable
 from dataclasses import dataclass, field
 
 import numpy as np
 
 from biplan._compile.setup import jnp
-from biplan._errors import ConfigError, check_integer, check_range
+from biplan._errors import ConfigError, ResultStatus, check_integer, check_range
 from biplan.analysis.stability import classify
 from biplan.analysis.states._nebkernel import relax_band
 from biplan.model.assembly import Load, Model
@@ -45,14 +44,14 @@ __all__ = [
 NEGATIVE_TOL = 1e-8
 
 
-class MepStatus(enum.Enum):
+class MepStatus(ResultStatus):
     """Outcome of a minimum-energy-path search."""
 
-    CONVERGED = "converged"
-    BAND_NOT_CONVERGED = "band_not_converged"
-    SADDLE_NOT_REFINED = "saddle_not_refined"
-    NOT_FIRST_ORDER = "not_first_order"
-    NO_BARRIER = "no_barrier"
+    CONVERGED = "converged", "first-order saddle found", True
+    BAND_NOT_CONVERGED = "band_not_converged", "the nudged elastic band did not converge"
+    SADDLE_NOT_REFINED = "saddle_not_refined", "the saddle refinement did not converge"
+    NOT_FIRST_ORDER = "not_first_order", "the highest point is not a first-order saddle"
+    NO_BARRIER = "no_barrier", "the highest image is not above both end states"
 
 
 @dataclass(frozen=True)

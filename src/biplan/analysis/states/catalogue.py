@@ -76,7 +76,7 @@ class Enumeration:
     duplicate_tolerance : float
         Two equilibria are the same state when max |Δq| is below this [mm, rad].
     stability_tolerance : float
-        λ_min of the reduced Hessian above this [N/mm] is stable.
+        λ_min of the reduced Hessian above this [N·mm per unit q²] is stable.
     """
 
     penalty_stiffness: float = 1e4
@@ -103,7 +103,7 @@ class StableState:
     ``bits`` are the fold states (free end first,
     :func:`~biplan.analysis.states.labels.bistable_folds`),
     ``name`` is the label, made unique with a suffix (``1B.2``) when two distinct states share
-    bits. Lengths in mm, θ in rad, energy in N·mm, eigenvalue in N/mm.
+    bits. Lengths in mm, θ in rad, energy in N·mm, eigenvalue in N·mm per unit q² (q in mm and rad).
     """
 
     name: str
@@ -164,7 +164,7 @@ class StateCatalogue:
     unstable_z : ndarray (k, n_z)
         Distinct converged equilibria rejected as not stable.
     unstable_eigenvalues : ndarray (k,)
-        Their smallest reduced-Hessian eigenvalues [N/mm] (≤ the stability tolerance).
+        Their smallest reduced-Hessian eigenvalues [N·mm per unit q²] (≤ the stability tolerance).
     elapsed : float
         Wall time [s] of the enumeration.
     """
@@ -285,7 +285,7 @@ class StateCatalogue:
             "u_z": "mm",
             "u_r": "mm",
             "theta": "rad",
-            "min_eigenvalue": "N/mm",
+            "min_eigenvalue": "N mm",
         }
         for key, unit in units.items():
             ds[key].attrs["units"] = unit

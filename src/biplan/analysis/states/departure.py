@@ -18,13 +18,12 @@ target when every fold has the target's majority phase.
 
 from __future__ import annotations
 
-import enum
 from dataclasses import dataclass, field
 
 import numpy as np
 
 from biplan._compile.setup import jnp
-from biplan._errors import ConfigError, check_integer, check_range
+from biplan._errors import ConfigError, ResultStatus, check_integer, check_range
 from biplan.analysis.response.quasistatic import SUB_TOLERANCE, inexact_newton
 from biplan.model.assembly import Load, Model
 from biplan.solvers.newton import Newton, Status, solve_loop
@@ -33,12 +32,12 @@ from biplan.solvers.observe import Observation, observe_batch
 __all__ = ["Departure", "DepartureStatus", "Ramp", "departure_force"]
 
 
-class DepartureStatus(enum.Enum):
+class DepartureStatus(ResultStatus):
     """Outcome of :func:`departure_force`."""
 
-    FOUND = "found"
-    NO_LOSS = "no_loss_of_stability"
-    START_NOT_STABLE = "start_not_stable"
+    FOUND = "found", "the state loses stability on the ramp", True
+    NO_LOSS = "no_loss_of_stability", "no loss of stability up to the end of the ramp"
+    START_NOT_STABLE = "start_not_stable", "the start state is not stable at zero load"
 
 
 @dataclass(frozen=True)

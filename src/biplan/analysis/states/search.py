@@ -199,7 +199,7 @@ def enumerate_states(
                 **common, outcome=Outcome.STABLE, state=name_of[int(state_of[i])], message=""
             )
         elif converged[i]:
-            message = f"equilibrium with λ_min = {eig:.3g} N/mm ≤ {settings.stability_tolerance:g}"
+            message = f"equilibrium with λ_min = {eig:.3g} N·mm ≤ {settings.stability_tolerance:g}"
             outcome = SeedOutcome(**common, outcome=Outcome.UNSTABLE, state=None, message=message)
         else:
             code = int(res["status"][i])

@@ -94,7 +94,7 @@ def _seed_index(bits: np.ndarray) -> np.ndarray:
 
 def outcome_masks(res: dict[str, np.ndarray], tolerance: float) -> tuple[np.ndarray, np.ndarray]:
     """(converged, stable) per seed of :func:`evaluate`'s result: a finite equilibrium whose
-    solve converged, and among those the ones with λ_min > ``tolerance`` [N/mm]."""
+    solve converged, and among those the ones with λ_min > ``tolerance`` [N·mm per unit q²]."""
     converged = (res["status"] == Status.CONVERGED.value) & np.isfinite(res["residual"])
     converged &= np.all(np.isfinite(res["z"]), axis=1)
     return converged, converged & (res["min_eigenvalue"] > tolerance)
@@ -179,8 +179,8 @@ def evaluate(
 ) -> dict[str, np.ndarray]:
     """Relax and observe seeds ``indices``: per seed (leading axis) ``seed``, ``z``,
     ``status``, ``residual`` [N, mm], ``reached`` (fold bits of the equilibrium),
-    ``min_eigenvalue`` [N/mm], ``energy`` [N·mm], ``u_z``, ``u_r`` [mm], ``theta`` [rad],
-    ``phase_fraction`` (N + Nc, 3)."""
+    ``min_eigenvalue`` [N·mm per unit q²], ``energy`` [N·mm], ``u_z``, ``u_r`` [mm],
+    ``theta`` [rad], ``phase_fraction`` (N + Nc, 3)."""
     indices = np.asarray(indices, dtype=np.int64)
     target, mask = seed_targets(model, folds, seed_bits(indices, len(folds)))
     z, status, residual = relax_seeds(model, target, mask, settings, progress)
