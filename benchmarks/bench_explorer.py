@@ -24,8 +24,8 @@ import numpy as np
 import xarray as xr
 
 import biplan
-from biplan.cli.explore import explorer_page, read_explorable
 from biplan.plot.explorer import catalogue_page, write_page
+from biplan.plot.explorer.source import explorer_page, read_explorable
 
 ROOT = Path(__file__).resolve().parents[1]
 

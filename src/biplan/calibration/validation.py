@@ -9,14 +9,16 @@ intervals where the prediction leaves the median ± 1 SD band. Arrays in, a froz
 
 from __future__ import annotations
 
+import csv
 from dataclasses import dataclass
+from pathlib import Path
 
 import numpy as np
 
 from biplan._errors import ConfigError
 from biplan.calibration.specimens import Band
 
-__all__ = ["BandComparison", "compare_to_band"]
+__all__ = ["BandComparison", "compare_to_band", "write_comparison"]
 
 
 @dataclass(frozen=True, eq=False)
@@ -118,3 +120,22 @@ def compare_to_band(band: Band, displacement: np.ndarray, force: np.ndarray) -> 
         rms=rms,
         intervals=tuple(sorted(intervals)),
     )
+
+
+def write_comparison(result: BandComparison, file: Path) -> None:
+    """Write a :class:`BandComparison` on its band grid as CSV (``validation.csv`` of
+    ``biplan validate`` and ``biplan reproduce``): displacement [mm], phase, count, median [N],
+    std [N], predicted [N], residual [N], outside (1/0)."""
+    band = result.band
+    with file.open("w", newline="") as fh:
+        out = csv.writer(fh)
+        out.writerow(
+            ["displacement", "phase", "count", "median", "std", "predicted", "residual", "outside"]
+        )
+        for k in range(band.displacement.size):
+            numbers = (band.median[k], band.std[k], result.predicted[k], result.residual[k])
+            out.writerow(
+                [f"{band.displacement[k]:.8g}", band.labels[band.phase[k]], int(band.count[k])]
+                + [f"{x:.8g}" for x in numbers]
+                + [int(result.outside[k])]
+            )

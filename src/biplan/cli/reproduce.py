@@ -1,10 +1,8 @@
 """``biplan reproduce --out DIR [--quick]``: every panel the paper's models produce, and a report.
 
 Runs the stages of :mod:`biplan.reproduction.stages` (Fig. 3, Fig. 4, the supplement's CFT
-calibration and Movie S1; a stage that fails is recorded in the report with its error and the
-command goes on), then the interactive pages of ``biplan explore`` beside the figures:
-``explorer.html`` (the state catalogue), ``explorer_design_map.html`` and
-``explorer_ramp.html`` (each written where its stage's result exists). Then
+calibration and Movie S1, and the interactive pages of ``biplan explore`` beside the figures;
+a stage that fails is recorded in the report with its error and the command goes on). Then
 ``REPRODUCTION.md``: every claim of :data:`biplan.reproduction.claims.CLAIMS` with our value, a
 computed verdict and the reason, one table per figure, linking the figures
 (:func:`biplan.reproduction.report.run_reproduction`).
@@ -27,45 +25,13 @@ from biplan._errors import ConfigError
 from biplan.cli._checks import output_directory
 from biplan.reproduction.report import run_reproduction
 from biplan.reproduction.settings import Resolution
-from biplan.reproduction.stages import STAGES as LIBRARY_STAGES
-from biplan.reproduction.stages import Stage, StageContext
+from biplan.reproduction.stages import STAGES
 
-__all__ = ["EXPLORER_PAGES", "STAGES", "TPC_SIGNS", "reproduce"]
+__all__ = ["TPC_SIGNS", "reproduce"]
 
 #: Values of ``--tpc-sign`` (those of :class:`biplan.options.TpcSign`; the options module is
 #: not imported here, it imports JAX).
 TPC_SIGNS = ("geometric", "as_printed")
-
-#: Explorer pages written beside the figures: file → the result it explores (in --out).
-EXPLORER_PAGES = {
-    "explorer.html": "states/states.nc",
-    "explorer_design_map.html": "design_map/map.nc",
-    "explorer_ramp.html": "ramp.nc",
-}
-
-
-def _explorer_pages(ctx: StageContext) -> None:
-    """The pages of ``biplan explore`` of the catalogue, the design map and the ramp, each
-    where its stage wrote its result."""
-    from biplan.cli.explore import explorer_page, read_explorable
-    from biplan.plot.explorer import write_page
-
-    missing = []
-    for name, source in EXPLORER_PAGES.items():
-        file = ctx.out / source
-        if not file.is_file():
-            missing.append(source)
-            continue
-        write_page(explorer_page(read_explorable(file), file), ctx.out / name)
-    if missing:
-        raise FileNotFoundError(f"no explorer page of {', '.join(missing)} (its stage failed)")
-
-
-#: The library's stages, then the explorer pages.
-STAGES = {
-    **LIBRARY_STAGES,
-    "explorer": Stage("interactive explorer pages (biplan explore)", _explorer_pages),
-}
 
 
 def reproduce(

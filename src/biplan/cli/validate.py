@@ -36,24 +36,7 @@ if TYPE_CHECKING:
     from biplan.analysis.response.quasistatic import QuasiStaticPath
     from biplan.calibration.validation import BandComparison
 
-__all__ = ["summary", "validate", "write_comparison"]
-
-
-def write_comparison(result: BandComparison, file: Path) -> None:
-    """Write the comparison on the band grid (columns: module docstring)."""
-    band = result.band
-    with file.open("w", newline="") as fh:
-        out = csv.writer(fh)
-        out.writerow(
-            ["displacement", "phase", "count", "median", "std", "predicted", "residual", "outside"]
-        )
-        for k in range(band.displacement.size):
-            numbers = (band.median[k], band.std[k], result.predicted[k], result.residual[k])
-            out.writerow(
-                [f"{band.displacement[k]:.8g}", band.labels[band.phase[k]], int(band.count[k])]
-                + [f"{x:.8g}" for x in numbers]
-                + [int(result.outside[k])]
-            )
+__all__ = ["summary", "validate"]
 
 
 def _write_prediction(path: QuasiStaticPath, file: Path) -> None:
@@ -135,7 +118,7 @@ def validate(
     from biplan.analysis.response.quasistatic import displacement_sweep
     from biplan.calibration.files import SpecimenFormat, read_specimens, with_overrides
     from biplan.calibration.specimens import band_statistics
-    from biplan.calibration.validation import compare_to_band
+    from biplan.calibration.validation import compare_to_band, write_comparison
 
     console = Console(highlight=False)
     interactive = console.is_terminal and not quiet

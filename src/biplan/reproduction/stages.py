@@ -50,6 +50,7 @@ from typing import Any
 
 import numpy as np
 
+from biplan.calibration.validation import write_comparison
 from biplan.reproduction import figures
 from biplan.reproduction.facts import (
     PAPER_B,
@@ -61,9 +62,9 @@ from biplan.reproduction.facts import (
     state_facts,
 )
 from biplan.reproduction.settings import INSTABILITY_UP_TO, SWEEP_END, Settings
-from biplan.reproduction.validation import synthetic_band, write_comparison
+from biplan.reproduction.validation import synthetic_band
 
-__all__ = ["STAGES", "Stage", "StageContext", "run_map_python", "run_stages"]
+__all__ = ["EXPLORER_PAGES", "STAGES", "Stage", "StageContext", "run_map_python", "run_stages"]
 
 
 @dataclass
@@ -339,6 +340,31 @@ def _stage_movie(ctx: StageContext) -> None:
 
 
 #: Stages in order: name (the :class:`Results` field it fills) → stage.
+#: Explorer pages written beside the figures: file → the result it explores (in the output).
+EXPLORER_PAGES = {
+    "explorer.html": "states/states.nc",
+    "explorer_design_map.html": "design_map/map.nc",
+    "explorer_ramp.html": "ramp.nc",
+}
+
+
+def _stage_explorer(ctx: StageContext) -> None:
+    """The pages of ``biplan explore`` of the catalogue, the design map and the ramp, each
+    where its stage wrote its result."""
+    from biplan.plot.explorer import write_page
+    from biplan.plot.explorer.source import explorer_page, read_explorable
+
+    missing = []
+    for name, source in EXPLORER_PAGES.items():
+        file = ctx.out / source
+        if not file.is_file():
+            missing.append(source)
+            continue
+        write_page(explorer_page(read_explorable(file), file), ctx.out / name)
+    if missing:
+        raise FileNotFoundError(f"no explorer page of {', '.join(missing)} (its stage failed)")
+
+
 STAGES: dict[str, Stage] = {
     "semi": Stage("semi-bistable sweep and snapshots (Fig. 3 B)", _stage_semi),
     "validation": Stage("force–displacement vs band (Fig. 3 A.2)", _stage_validation),
@@ -348,6 +374,7 @@ STAGES: dict[str, Stage] = {
     "states": Stage("fully bistable states and transitions (Fig. 4)", _stage_states),
     "calibration": Stage("CFT calibration (SI)", _stage_calibration),
     "movie": Stage("force ramp and Movie S1", _stage_movie),
+    "explorer": Stage("interactive explorer pages (biplan explore)", _stage_explorer),
 }
 
 

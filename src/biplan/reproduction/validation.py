@@ -4,13 +4,11 @@ and the comparison file it writes.
 
 from __future__ import annotations
 
-import csv
-from pathlib import Path
 from typing import Any
 
 import numpy as np
 
-__all__ = ["synthetic_band", "write_comparison"]
+__all__ = ["synthetic_band"]
 
 
 def synthetic_band(path: Any, seed: int = 11) -> Any:
@@ -60,26 +58,3 @@ def synthetic_band(path: Any, seed: int = 11) -> Any:
             segs.append(Segment(s_u * x, y, label))
         specimens.append(Specimen(f"synthetic_{i + 1:02d}", tuple(segs)))
     return band_statistics(specimens)
-
-
-def write_comparison(result: Any, file: Path) -> None:
-    """Write a :class:`~biplan.calibration.validation.BandComparison` on its band grid.
-
-    The columns of ``biplan validate``'s ``validation.csv``: displacement [mm], phase, count,
-    median [N], std [N], predicted [N], residual [N], outside (1/0). (A copy of
-    ``biplan.cli.validate.write_comparison``, which the reproduction, a layer below the
-    commands, cannot import; one of the two goes when the writer moves below both.)
-    """
-    band = result.band
-    with file.open("w", newline="") as fh:
-        out = csv.writer(fh)
-        out.writerow(
-            ["displacement", "phase", "count", "median", "std", "predicted", "residual", "outside"]
-        )
-        for k in range(band.displacement.size):
-            numbers = (band.median[k], band.std[k], result.predicted[k], result.residual[k])
-            out.writerow(
-                [f"{band.displacement[k]:.8g}", band.labels[band.phase[k]], int(band.count[k])]
-                + [f"{x:.8g}" for x in numbers]
-                + [int(result.outside[k])]
-            )

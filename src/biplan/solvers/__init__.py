@@ -14,6 +14,7 @@ from biplan.solvers.newton import Solution as Solution
 from biplan.solvers.newton import Status as Status
 from biplan.solvers.newton import relaxed_reference as relaxed_reference
 from biplan.solvers.newton import solve_equilibrium as solve_equilibrium
+from biplan.solvers.path_results import Critical as Critical
 from biplan.solvers.path_results import Event as Event
 from biplan.solvers.path_results import Path as Path
 from biplan.solvers.path_results import PathStatus as PathStatus
@@ -25,6 +26,7 @@ __all__ = [
     "BackwardEuler",
     "Control",
     "ControlKind",
+    "Critical",
     "Event",
     "GeneralizedAlpha",
     "LoadHistory",

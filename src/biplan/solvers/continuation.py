@@ -35,7 +35,7 @@ from biplan.solvers import _pathkernel as pk
 from biplan.solvers.control import Control
 from biplan.solvers.newton import Newton, Solution, solve_equilibrium
 from biplan.solvers.observe import CHUNK, STABILITY_TOL, Observation, observe_batch
-from biplan.solvers.path_results import Event, Path, PathStats, PathStatus
+from biplan.solvers.path_results import Critical, Event, Path, PathStats, PathStatus
 
 __all__ = ["ArcLength", "LoadStepping", "trace_path"]
 
@@ -278,7 +278,9 @@ def trace_path(
             if found is None:
                 continue
             zi, li, width = found
-            kind = "limit point" if tang[i, -1] * tang[i + 1, -1] < 0 else "bifurcation"
+            kind = (
+                Critical.LIMIT_POINT if tang[i, -1] * tang[i + 1, -1] < 0 else Critical.BIFURCATION
+            )
             inserted.append((i, zi, li))
             events.append(
                 Event(

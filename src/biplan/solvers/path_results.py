@@ -8,6 +8,7 @@ A path converts to an ``xarray.Dataset`` (dim ``step``) with
 
 from __future__ import annotations
 
+import enum
 from dataclasses import dataclass, field
 from typing import Any
 
@@ -19,7 +20,7 @@ from biplan.solvers.control import Control
 from biplan.solvers.observe import Observation
 from biplan.solvers.results import OBSERVABLES, LabelledResult, display_units, observables
 
-__all__ = ["Event", "Path", "PathStats", "PathStatus", "Snap"]
+__all__ = ["Critical", "Event", "Path", "PathStats", "PathStatus", "Snap"]
 
 
 class PathStatus(ResultStatus):
@@ -54,11 +55,19 @@ class PathStatus(ResultStatus):
         return PathStatus(code) if code in (0, 1, 2, 3, 5, 6) else PathStatus.STALLED
 
 
+class Critical(enum.StrEnum):
+    """What was lost where λ_min(H_r) changes sign (the value is what files hold)."""
+
+    LIMIT_POINT = "limit point"  #: the load turns back (the tangent's load component flips)
+    BIFURCATION = "bifurcation"  #: the load goes on; another branch crosses
+    LOSS_OF_STABILITY = "loss of stability"  #: not located: last stable before first unstable
+
+
 @dataclass(frozen=True)
 class Event:
     """A located sign change of λ_min(H_r) along a path."""
 
-    kind: str  # "limit point" or "bifurcation"
+    kind: Critical  # LIMIT_POINT or BIFURCATION
     step: int  # index of the located state in the path
     load_parameter: float
     force: float  # [N]
@@ -85,9 +94,9 @@ class Snap:
         End force at the jump [N].
     displacement_before, displacement_after : float
         Load-point displacement z_p [mm] before and after the jump.
-    critical : str
-        What was lost: ``"limit point"``, ``"bifurcation"`` or ``"loss of stability"`` (not
-        located: the last stable state before the first unstable one).
+    critical : Critical
+        What was lost (``LOSS_OF_STABILITY``: not located, the last stable state before the
+        first unstable one).
     folds : tuple of str
         The folds whose dominant phase changed in the jump
         (:func:`~biplan.solvers.results.fold_names`).
@@ -102,7 +111,7 @@ class Snap:
     force: float
     displacement_before: float
     displacement_after: float
-    critical: str
+    critical: Critical
     folds: tuple[str, ...]
     landing: str
     tolerance: float = float("nan")
@@ -243,7 +252,7 @@ class Path(LabelledResult):
 
     @property
     def limit_points(self) -> tuple[Event, ...]:
-        return tuple(e for e in self.events if e.kind == "limit point")
+        return tuple(e for e in self.events if e.kind is Critical.LIMIT_POINT)
 
     def _variables(self) -> dict[str, np.ndarray]:
         out = {n: getattr(self, n) for n in (*OBSERVABLES, "q")}

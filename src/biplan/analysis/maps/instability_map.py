@@ -24,11 +24,12 @@ from biplan._errors import BiplanError, check_range
 from biplan.analysis.response.loadcontrol import first_snap
 from biplan.model.assembly import Model
 from biplan.model.tube import Tube
+from biplan.solvers.path_results import Critical
 
 __all__ = ["CRITICAL", "InstabilityEvaluator"]
 
 #: Codes of the ``critical`` variable (what was lost at F*).
-CRITICAL = {"limit point": 1, "bifurcation": 2, "loss of stability": 3}
+CRITICAL = {Critical.LIMIT_POINT: 1, Critical.BIFURCATION: 2, Critical.LOSS_OF_STABILITY: 3}
 
 
 @dataclass(frozen=True)

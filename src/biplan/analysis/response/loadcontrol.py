@@ -40,7 +40,7 @@ from biplan.model.assembly import Model
 from biplan.solvers.continuation import ArcLength, trace_path
 from biplan.solvers.control import Control
 from biplan.solvers.newton import Newton, Solution, solve_equilibrium
-from biplan.solvers.path_results import Path, PathStats, PathStatus, Snap
+from biplan.solvers.path_results import Critical, Path, PathStats, PathStatus, Snap
 from biplan.solvers.results import fold_names
 
 __all__ = [
@@ -235,15 +235,15 @@ def _first_unstable(path: Path) -> int | None:
     return int(bad[0]) + 1 if bad.size else None
 
 
-def _critical(path: Path, k: int, end: int | None) -> tuple[str, float]:
+def _critical(path: Path, k: int, end: int | None) -> tuple[Critical, float]:
     """What was lost at state ``k`` (the last kept) and the located tolerance in Λ."""
     for e in path.events:
         if e.step == k:
             return e.kind, e.tolerance
     if end is None:  # the load turned back after state k: located to its neighbours
         near = path.load_parameter[max(k - 1, 0) : k + 2]
-        return "limit point", float(np.max(np.abs(near - path.load_parameter[k])))
-    return "loss of stability", abs(float(path.load_parameter[end] - path.load_parameter[k]))
+        return Critical.LIMIT_POINT, float(np.max(np.abs(near - path.load_parameter[k])))
+    return Critical.LOSS_OF_STABILITY, abs(float(path.load_parameter[end] - path.load_parameter[k]))
 
 
 def _head(path: Path, n: int) -> Path:
