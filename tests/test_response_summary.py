@@ -66,8 +66,8 @@ def test_state_at_the_terminal_force_is_interpolated() -> None:
 def test_phase_one_is_one_definition() -> None:
     """``summarize``, the demo's snapshots and the reproduce report end phase 1 at the same
     step: the first failure, instability, snap or stable fall of the force."""
+    from biplan.analysis.response.demo import phase_one
     from biplan.analysis.response.summary import phase_one_end
-    from biplan.cli.demo import phase_one
     from biplan.reproduction.facts import SemiBistableFacts
 
     cases = {

@@ -1,29 +1,15 @@
 """``biplan respond CONFIG --control {force,displacement,pressure} [--dynamic] --out DIR``.
 
-Quasi-static, ``--method stable`` (the default): what a test under that control does. Under
-force or pressure control (:func:`~biplan.analysis.response.loadcontrol.load_response`) the stable
-branch up to its first loss of stability, the snap there (located; the landing state found by
-a descent at the fixed load), and the stable branch on from there, snap after snap, to
-``--stop`` (``--stop-at-snap`` ends at the first); under displacement control the
-stable-branch sweep of a testing machine (``--step`` mm per step). ``--method arclength`` is a
-numerical method, not a test: the equilibrium path through unstable states by
-pseudo-arclength continuation; it never runs back past its start (status ``RETURNED``).
-``--method stepping`` steps the load and stops at the first limit point. Dynamic
-(``--dynamic``): integrates the equations of motion under the ramp Λ(t) = ``--rate`` · t for
-0 ≤ t ≤ ``--duration`` (default the paper's 0.8 N/s for 2 s), then holds for ``--hold``
-seconds.
-
-Writes into DIR:
-
-* ``response.nc`` — the labelled result (xarray/netCDF, with the tube configuration);
-* ``response.csv`` — one row per step (or time, column ``t`` [s]) with at least
-  ``force,u_z,u_r,theta,energy,min_eigenvalue,stable``;
-* ``response.png`` — force (pressure, under pressure control) against load-point
-  displacement, unstable stretches dashed, located limit points marked, snaps drawn as
-  dotted jumps; a dynamic run adds force and displacement against time.
-
-Every run reports the phase-1 peak force as the located first loss of stability under force
-control (:func:`~biplan.analysis.response.loadcontrol.first_snap`), with its tolerance. A stable run
+Runs :func:`biplan.analysis.response.run.respond`: quasi-static, ``--method stable`` (the
+default) is what a test under that control does (under force or pressure control the stable
+branches with each snap located and landed, ``--stop-at-snap`` ending at the first; under
+displacement control the stable-branch sweep, ``--step`` mm per step); ``--method arclength``
+and ``--method stepping`` are numerical paths; ``--dynamic`` integrates the equations of motion
+under the ramp Λ(t) = ``--rate`` · t for 0 ≤ t ≤ ``--duration`` (default the paper's 0.8 N/s
+for 2 s), then holds for ``--hold`` seconds. Writes into DIR ``response.nc`` and
+``response.csv`` (:func:`biplan.io.response_files.save_response`) and ``response.png``
+(:func:`biplan.plot.response_figures.response_figure`), and prints the summary, whose
+phase-1 peak force is the located first loss of stability under force control. A stable run
 that ends short of ``--stop`` writes its files and exits with status 1, saying why.
 
 Units: force N, displacement mm, pressure **kPa** on the command line and in the files and
@@ -43,23 +29,14 @@ import enum
 import math
 import sys
 from pathlib import Path
-from typing import TYPE_CHECKING, Annotated
+from typing import Annotated
 
-import numpy as np
 import typer
 from rich.console import Console
 
 from biplan._errors import ConfigError, check_finite, check_integer, check_range
+from biplan.analysis.response.settings import Method, QuasiStatic, Ramp
 from biplan.cli._checks import given, output_directory, refuse_unused
-
-if TYPE_CHECKING:
-    from matplotlib.axes import Axes
-
-    from biplan.analysis.response.summary import ResponseSummary
-    from biplan.model.assembly import Model
-    from biplan.solvers import Trajectory
-    from biplan.solvers.path_results import Path as ResponsePath
-    from biplan.solvers.path_results import Snap
 
 __all__ = ["EXIT_SHORT", "Method", "bifurcation_note", "respond"]
 
@@ -94,15 +71,12 @@ QUASI_STATIC_OPTIONS = {
 
 
 class ControlName(enum.StrEnum):
+    """Values of ``--control`` (those of :class:`biplan.solvers.ControlKind`, which imports
+    JAX)."""
+
     force = "force"
     displacement = "displacement"
     pressure = "pressure"
-
-
-class Method(enum.StrEnum):
-    stable = "stable"
-    arclength = "arclength"
-    stepping = "stepping"
 
 
 def respond(
@@ -123,7 +97,7 @@ def respond(
             "equilibrium path through unstable states) or stepping (load steps, stopping at "
             "the first limit point)."
         ),
-    ] = Method.stable,
+    ] = Method.STABLE,
     stop_at_snap: Annotated[
         bool,
         typer.Option(
@@ -160,153 +134,51 @@ def respond(
     """Force-, displacement- or pressure-controlled response of a tube (quasi-static or
     dynamic); writes response.nc, response.csv and response.png."""
     import biplan
-    from biplan.io.results import dataset, save_csv, save_netcdf
+    from biplan.analysis.response.run import respond as run_response
+    from biplan.io.response_files import save_response
+    from biplan.plot.response_figures import response_figure
 
     output_directory(out, files=OUTPUT_FILES)
+    kind = control.value
+    scale = 1e-3 if kind == "pressure" else 1.0  # kPa → MPa
+    settings: QuasiStatic | Ramp
     if dynamic:
         _check_dynamic(ctx, rate, duration, hold, time_step, damping_ratio)
+        ramp_rate = (DEFAULT_RATE[kind] if rate is None else rate) * scale
+        settings = Ramp(ramp_rate, duration, hold, time_step, damping_ratio)
     else:
-        _check_quasi_static(ctx, method, stop, step, max_step, max_steps, control.value)
-        if stop_at_snap and (method is not Method.stable or control is ControlName.displacement):
+        _check_quasi_static(ctx, method, stop, step, max_step, max_steps, kind)
+        if stop_at_snap and (method is not Method.STABLE or control is ControlName.displacement):
             raise ConfigError(
                 "--stop-at-snap", True, "used with --method stable under force or pressure control"
             )
+        value = (DEFAULT_STOP[kind] if stop is None else stop) * scale
+        settings = QuasiStatic(value, method, step, max_step, max_steps, stop_at_snap)
     console = Console(quiet=quiet or not sys.stdout.isatty(), highlight=False)
     tube = biplan.load_config(config)
     model = biplan.Model(tube)
-    kind = control.value
-    scale = 1e-3 if kind == "pressure" else 1.0  # kPa → MPa
-    if method is Method.stable and kind == "displacement" and not dynamic:
-        with console.status(f"[bold]{tube.name}[/]: stable-branch sweep…"):
-            _stable_sweep(model, DEFAULT_STOP[kind] if stop is None else stop, step, out, quiet)
-        return
-    result: biplan.Path | biplan.Trajectory
-    with console.status(f"[bold]{tube.name}[/]: {'integrating' if dynamic else 'tracing'}…"):
-        if dynamic:
-            result = _dynamic(model, kind, scale, rate, duration, hold, time_step, damping_ratio)
-        else:
-            value = (DEFAULT_STOP[kind] if stop is None else stop) * scale
-            result = _quasi_static(model, kind, value, method, step, max_step, max_steps,
-                                   stop_at_snap)  # fmt: skip
+    sweep = not dynamic and method is Method.STABLE and kind == "displacement"
+    doing = "stable-branch sweep" if sweep else "integrating" if dynamic else "tracing"
+    with console.status(f"[bold]{tube.name}[/]: {doing}…"):
+        run = run_response(model, kind, settings)
     out.mkdir(parents=True, exist_ok=True)
-    save_netcdf(dataset(result), out / "response.nc")
-    save_csv(result, out / "response.csv")
-    _figure(result, out / "response.png")
-    _report(result, _summary(model, result), method, out, quiet)
-    if method is Method.stable and not dynamic and not result.completed and not stop_at_snap:
-        Console(stderr=True, highlight=False).print(
-            f"[red]error:[/] the response ended short of --stop: {result.message}",
-            soft_wrap=True,
-        )
-        raise typer.Exit(EXIT_SHORT)
-
-
-def _quasi_static(
-    model: Model,
-    kind: str,
-    value: float,
-    method: Method,
-    step: float,
-    max_step: float,
-    max_steps: int,
-    stop_at_snap: bool,
-) -> ResponsePath:
-    """The quasi-static response under force or pressure control (or a numerical path)."""
-    import biplan
-    from biplan.analysis.response.loadcontrol import load_response
-
-    ctl = biplan.Control(biplan.solvers.ControlKind(kind), value)
-    if method is Method.stable:
-        arc = biplan.ArcLength(initial_step=step, max_step=max_step, max_steps=max_steps)
-        return load_response(model, ctl, arc, stop_at_snap=stop_at_snap)
-    cls = biplan.ArcLength if method is Method.arclength else biplan.LoadStepping
-    stepper = cls(initial_step=step, max_step=max_step, max_steps=max_steps)
-    return biplan.trace_path(model, stepper, None, ctl)
-
-
-def _summary(model: Model, result: object) -> ResponseSummary:
-    """The response's summary, its phase-1 peak the located one (:func:`_peak`) when the
-    response leaves phase 1 (a dynamic ramp that never does reports no peak)."""
-    from biplan.analysis.response.summary import summarize
-
-    l0 = model.tube.initial_length
-    plain = summarize(result, initial_length=l0)
-    if not (np.isfinite(plain.peak_force) or getattr(result, "snaps", ())):
-        return plain
-    return summarize(result, initial_length=l0, peak=_peak(model, result))
-
-
-def _peak(model: Model, result: object) -> Snap | None:
-    """The located phase-1 peak: the response's first snap under force control, else
-    :func:`~biplan.analysis.response.loadcontrol.first_snap` (the same continuation settings)."""
-    from biplan.analysis.response.loadcontrol import PEAK_METHOD, first_snap
-    from biplan.solvers import ControlKind
-
-    snaps = getattr(result, "snaps", ())
-    control = getattr(result, "control", None)
-    if snaps and control is not None and control.kind is ControlKind.FORCE:
-        return snaps[0]  # type: ignore[no-any-return]
-    return first_snap(model, method=PEAK_METHOD)
-
-
-def _report(
-    result: ResponsePath | Trajectory, summary: ResponseSummary, method: Method, out: Path,
-    quiet: bool,
-) -> None:  # fmt: skip
-    """Print what the run was, how it ended, its snaps and its summary."""
-    from biplan.solvers.results import display_units
-
+    save_response(run.result, out / "response", model)
+    response_figure(run.result, out / "response.png")
     report = Console(quiet=quiet, highlight=False)
-    level = "green" if result.completed else "yellow"
-    what = ""
-    if getattr(result, "segment", None) is not None:
-        what = "stable response (what a load-controlled test does): "
-    elif getattr(result, "method", "") == "ArcLength":
-        what = (
-            "equilibrium path (pseudo-arclength, a numerical method: unstable states "
-            "included, not what a load-controlled test does): "
-        )
-    report.print(f"[{level}]{what}{result.message}[/]")
-    snaps = getattr(result, "snaps", ())
-    scale, unit = display_units(result.control)
-    for snap in snaps:
-        report.print("  " + snap.describe(unit, scale))
-    report.print("\n".join(summary.lines()) + f"\nwrote {out}/response.{{nc,csv,png}}")
-    note = bifurcation_note(result)
-    if note and method is Method.arclength:
+    report.print(f"[{'green' if run.complete else 'yellow'}]{run.headline}[/]")
+    for line in run.snap_lines():
+        report.print(line)
+    report.print("\n".join(run.summary.lines()) + f"\nwrote {out}/response.{{nc,csv,png}}")
+    note = bifurcation_note(run.result)
+    if note and method is Method.ARCLENGTH:
         report.print(f"[yellow]note:[/] {note}")
-
-
-def _stable_sweep(model: Model, stop: float, step: float, out: Path, quiet: bool) -> None:
-    """``--method stable``: :func:`~biplan.analysis.response.quasistatic.displacement_sweep` in
-    ⌈stop/step⌉ equal steps (checked against ``--max-steps`` before) from the relaxed
-    reference."""
-    import biplan
-    from biplan.analysis.response.quasistatic import displacement_sweep
-    from biplan.io.results import save_netcdf, save_sweep_csv, sweep_dataset
-
-    n = _stable_steps(stop, step)
-    ref = biplan.relaxed_reference(model, throw=True)
-    path = displacement_sweep(model, np.linspace(stop / n, stop, n), start=ref)
-    out.mkdir(parents=True, exist_ok=True)
-    save_netcdf(sweep_dataset(path, model), out / "response.nc")
-    save_sweep_csv(path, out / "response.csv")
-    _figure(path, out / "response.png")
-    failed = sum(not s.converged for s in path.solutions)
-    level = "green" if not failed else "yellow"
-    Console(quiet=quiet, highlight=False).print(
-        f"[{level}]stable-branch sweep to U = {stop:g} mm: {n} steps, "
-        f"{int(path.switched.sum())} snaps to a stable branch, {failed} failed[/]\n"
-        + "\n".join(_summary(model, path).lines())
-        + f"\nwrote {out}/response.{{nc,csv,png}}"
-    )
-    if failed == n:
+    if run.short:
+        if not sweep:  # a sweep's headline counts its failed steps
+            Console(stderr=True, highlight=False).print(
+                f"[red]error:[/] the response ended short of --stop: {run.message}",
+                soft_wrap=True,
+            )
         raise typer.Exit(EXIT_SHORT)
-
-
-def _stable_steps(stop: float, step: float) -> int:
-    """Steps of ``--method stable``: ⌈|stop| / step⌉, at least one."""
-    return max(math.ceil(abs(stop) / step), 1)
 
 
 def _check_quasi_static(
@@ -325,7 +197,7 @@ def _check_quasi_static(
     if stop is not None and check_finite("--stop", stop) == 0:
         raise ConfigError("--stop", stop, f"a non-zero end value [{UNITS[kind]}]")
     check_integer("--max-steps", max_steps, low=1)
-    if method is Method.stable and kind == "displacement":
+    if method is Method.STABLE and kind == "displacement":
         refuse_unused(
             ctx, {"max_step": "--max-step"}, "with --control displacement --method stable"
         )
@@ -385,79 +257,3 @@ def bifurcation_note(result: object) -> str | None:
         "stable-branch response (snaps included) use --control displacement --method stable "
         "(docs/solvers.md)."
     )
-
-
-def _dynamic(
-    model: object,
-    kind: str,
-    scale: float,
-    rate: float | None,
-    duration: float,
-    hold: float,
-    time_step: float,
-    damping_ratio: float,
-) -> Trajectory:
-    import biplan
-    from biplan.analysis.modes import rayleigh_at
-    from biplan.solvers import BackwardEuler, ControlKind
-
-    r = (DEFAULT_RATE[kind] if rate is None else rate) * scale
-    top = r * duration
-    times = (0.0, duration) if hold == 0 else (0.0, duration, duration + hold)
-    values = (0.0, top) if hold == 0 else (0.0, top, top)
-    history = biplan.LoadHistory(ControlKind(kind), times, values)
-    rayleigh = 0.0
-    if damping_ratio > 0:
-        ref = biplan.relaxed_reference(model, throw=True)  # type: ignore[arg-type]
-        probe = biplan.Control(ControlKind(kind), 0.5 * top).load(model, 0.5 * top)  # type: ignore[arg-type]
-        rayleigh = rayleigh_at(model, ref, probe, damping_ratio)  # type: ignore[arg-type]
-    scheme = BackwardEuler(time_step=time_step, rayleigh=rayleigh)
-    return biplan.integrate(model, scheme, t_end=times[-1], load=history)  # type: ignore[arg-type]
-
-
-def _figure(result: object, file: Path) -> None:
-    """response.png: F (p [kPa] under pressure control) against z_p; a trajectory adds F and
-    z_p against time in a second panel."""
-    import types
-
-    from biplan.plot.files import figure_file
-    from biplan.plot.response import COLUMN_FIGSIZE, FONT_SIZE, LINE_COLOR, force_displacement
-    from biplan.solvers.results import display_units
-
-    control = getattr(result, "control", None)
-    pressure = control is not None and control.kind.value == "pressure"
-    shown: object = result
-    if pressure:  # the same curve with the load parameter (kPa) in place of the force
-        kpa = display_units(control)[0]  # type: ignore[arg-type]
-        flags = {n: getattr(result, n) for n in ("switched", "is_event") if hasattr(result, n)}
-        shown = types.SimpleNamespace(
-            displacement=result.displacement,  # type: ignore[attr-defined]
-            force=kpa * np.asarray(result.load_parameter),  # type: ignore[attr-defined]
-            stable=result.stable,  # type: ignore[attr-defined]
-            **flags,
-        )
-    time = getattr(result, "time", None)
-    width = COLUMN_FIGSIZE[0] * (2.0 if time is not None else 1.0)
-    panels = 2 if time is not None else 1
-    with figure_file(file, ncols=panels, figsize=(width, COLUMN_FIGSIZE[1])) as (_, axes):
-        ax = axes[0] if time is not None else axes
-        force_displacement(shown, ax=ax)
-        ax.set_xlabel(r"load-point displacement $z_p$ [mm]")
-        if pressure:
-            ax.set_ylabel(r"pressure $p$ [kPa]")
-        if time is not None:
-            _time_panel(axes[1], result, FONT_SIZE, LINE_COLOR)  # type: ignore[arg-type]
-
-
-def _time_panel(ax: Axes, result: Trajectory, font_size: float, color: str) -> None:
-    """F(t) (left axis) and z_p(t) (right axis, dashed) of a trajectory."""
-    t = np.asarray(result.time)
-    ax.plot(t, result.force, color=color, lw=1.2)
-    ax.set_xlabel(r"time $t$ [s]", fontsize=font_size)
-    ax.set_ylabel(r"$F$ [N]", fontsize=font_size, color=color)
-    right = ax.twinx()
-    right.plot(t, result.displacement, color="#D55E00", lw=1.0, ls="--")
-    right.set_ylabel(r"$z_p$ [mm] (dashed)", fontsize=font_size, color="#D55E00")
-    for a in (ax, right):
-        a.tick_params(labelsize=font_size)
-    ax.set_xlim(float(t[0]), float(t[-1]))
