@@ -34,7 +34,7 @@ def no_solve(monkeypatch: pytest.MonkeyPatch) -> None:
     import biplan.analysis.response.quasistatic
     import biplan.analysis.states.search
     import biplan.calibration.calibrate
-    import biplan.cli.reproduce
+    import biplan.reproduction.report
     import biplan.io.results
 
     monkeypatch.setattr(biplan, "Model", _forbidden)
@@ -43,7 +43,7 @@ def no_solve(monkeypatch: pytest.MonkeyPatch) -> None:
     monkeypatch.setattr(biplan.analysis.response.quasistatic, "displacement_sweep", _forbidden)
     monkeypatch.setattr(biplan.calibration.calibrate, "calibrate_trilinear", _forbidden)
     monkeypatch.setattr(biplan.io.results, "load_result", _forbidden)
-    monkeypatch.setattr(biplan.cli.reproduce, "run_reproduction", _forbidden)
+    monkeypatch.setattr(biplan.reproduction.report, "run_reproduction", _forbidden)
 
 
 def _refused(capsys: pytest.CaptureFixture[str], args: list[str], *needles: str) -> str:
@@ -591,10 +591,10 @@ def test_plot_kind_that_does_not_apply_names_the_kinds_that_do(
 ) -> None:  # fmt: skip
     import xarray as xr
 
-    import biplan.cli.plot
+    import biplan.plot.results
 
-    monkeypatch.setattr(biplan.cli.plot, "_figure", _forbidden)  # nothing is drawn
-    monkeypatch.setattr(biplan.cli.plot, "_model", _forbidden)
+    monkeypatch.setattr(biplan.plot.results, "result_figure", _forbidden)  # nothing is drawn
+    monkeypatch.setattr(biplan.plot.results, "model_of", _forbidden)
     path = catalogues["fully"]
     if file == "map":
         path = tmp_path / "map.nc"
@@ -606,7 +606,7 @@ def test_plot_kind_that_does_not_apply_names_the_kinds_that_do(
 
 
 def test_state_names_are_read_in_any_case() -> None:
-    from biplan.cli.states import state_name
+    from biplan.analysis.states.labels import state_name
 
     tube = biplan.load_config(FULLY)
     assert state_name("START", "2a", tube) == "2A"

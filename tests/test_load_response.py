@@ -149,7 +149,8 @@ def test_pressure_control_reaches_its_stop_in_kpa_files() -> None:
     assert r.snaps[0].load_parameter * area == pytest.approx(peak.force, rel=1e-3)
     assert "segment" in ds and int(ds["switched"].sum()) == len(r.snaps)
     # `biplan plot --kind response` of the file draws the controlled pressure [kPa]
-    from biplan.cli.plot import Kind, _figure
+    from biplan.cli.plot import Kind
+    from biplan.plot.results import result_figure as _figure
 
     fig = _figure(ds, Kind.response, 0, "elongation", False, {})
     ax = fig.axes[0]

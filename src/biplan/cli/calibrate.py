@@ -21,12 +21,10 @@ Options given on the command line override those of ``--config`` (schema:
 
 from __future__ import annotations
 
-import csv
 import enum
 from pathlib import Path
-from typing import TYPE_CHECKING, Annotated
+from typing import TYPE_CHECKING, Annotated, Any
 
-import numpy as np
 import typer
 from rich.console import Console
 from rich.markup import escape
@@ -37,7 +35,7 @@ from biplan.cli._checks import figure_suffixes, options_named, output_file
 if TYPE_CHECKING:
     from biplan.calibration.calibrate import Calibration
 
-__all__ = ["app", "linear", "trilinear", "write_table"]
+__all__ = ["FIT_OPTIONS", "FORMAT_OPTIONS", "app", "format_changes", "linear", "trilinear"]
 
 
 app = typer.Typer(
@@ -46,18 +44,19 @@ app = typer.Typer(
 )
 
 
+class BreakpointChoice(enum.StrEnum):
+    """Trilinear breakpoints (:class:`~biplan.calibration.calibrate.Breakpoints`): the measured
+    stability limits, or fitted."""
+
+    measured = "measured"
+    free = "free"
+
+
 class FoldSet(enum.StrEnum):
     """The fold set whose law block is written."""
 
     circular = "circular"
     helical = "helical"
-
-
-class BreakpointChoice(enum.StrEnum):
-    """Trilinear breakpoints: the measured stability limits, or fitted."""
-
-    measured = "measured"
-    free = "free"
 
 
 DataDir = Annotated[
@@ -106,26 +105,12 @@ FIT_OPTIONS = {
     "confidence": "--confidence",
     "seed": "--seed",
 }
-
-
-def write_table(result: Calibration, file: Path) -> None:
-    """Write the band and the fit on the common grid (columns: module docstring)."""
-    band = result.band
-    u = band.displacement
-    fitted = np.interp(u, result.fit.displacement, result.fit.fitted, left=np.nan, right=np.nan)
-    on_fit = np.isin(u, result.fit.displacement)
-    with file.open("w", newline="") as fh:
-        out = csv.writer(fh)
-        out.writerow(["displacement", "phase", "count", "median", "std", "fitted", "residual"])
-        for k in range(u.size):
-            res = fitted[k] - band.median[k] if on_fit[k] else np.nan
-            out.writerow(
-                [f"{u[k]:.8g}", band.labels[band.phase[k]], int(band.count[k])]
-                + [f"{x:.8g}" for x in (band.median[k], band.std[k], fitted[k], res)]
-            )
+#: Fields of CalibrationOptions both commands set → their Python parameter names.
+_BOOTSTRAP = {"n_bootstrap": "bootstrap", "confidence": "confidence", "seed": "seed"}
 
 
 def _summary(result: Calibration) -> Table:
+    """The estimates and their bootstrap intervals as a Rich table."""
     opts = result.options
     table = Table(
         title=f"Fitted law ({opts.confidence:.0%} bootstrap intervals)",
@@ -140,15 +125,6 @@ def _summary(result: Calibration) -> Table:
     return table
 
 
-def _figure(result: Calibration, file: Path) -> None:
-    from biplan.plot import calibration_band
-    from biplan.plot.files import figure_file
-    from biplan.plot.response import COLUMN_FIGSIZE
-
-    with figure_file(file, figsize=COLUMN_FIGSIZE) as (_, ax):
-        calibration_band(result, ax=ax)
-
-
 def format_changes(options: dict[str, object]) -> dict[str, object]:
     """SpecimenFormat fields from a command's column/unit options (its ``locals()``)."""
     return {
@@ -158,70 +134,51 @@ def format_changes(options: dict[str, object]) -> dict[str, object]:
     }
 
 
-def _run(
-    kind: str,
-    data_dir: Path,
-    out: Path,
-    figure: Path | None,
-    table_path: Path | None,
-    config: Path | None,
-    fold_set: str,
-    quiet: bool,
-    geometry_changes: dict,
-    format_changes: dict,
-    options_changes: dict,
-) -> None:
-    from dataclasses import replace
-
-    from biplan.calibration.calibrate import (
-        CalibrationOptions,
-        calibrate_linear,
-        calibrate_trilinear,
+def _run(kind: str, options: dict[str, Any], fit: dict[str, object]) -> None:
+    """Check the output files, set up and run the calibration, write the law block, table and
+    figure, then print the summary (unless ``--quiet``), the caveats and the files written.
+    ``options``: the command's ``locals()``; ``fit``: its own fields of
+    :class:`~biplan.calibration.calibrate.CalibrationOptions`."""
+    from biplan.calibration.runs import (
+        LawKind,
+        calibrate_directory,
+        calibration_setup,
+        write_law,
+        write_table,
     )
-    from biplan.calibration.files import (
-        SpecimenFormat,
-        calibration_toml,
-        read_calibration_config,
-        read_specimens,
-        with_overrides,
-    )
-    from biplan.calibration.fits import CftGeometry
+    from biplan.plot.calibration import write_calibration_band
 
-    console = Console(highlight=False)
+    out, data_dir, quiet = options["out"], options["data_dir"], options["quiet"]
     output_file(out)
-    figure = figure or out.with_suffix(".png")
-    table_path = table_path or out.with_suffix(".csv")
+    figure = options["figure"] or out.with_suffix(".png")
+    table_path = options["table"] or out.with_suffix(".csv")
     output_file(figure, "--figure", suffixes=figure_suffixes())
     output_file(table_path, "--table")
-    geometry, fmt = (CftGeometry(), SpecimenFormat())
-    if config is not None:
-        geometry, fmt = read_calibration_config(config)
     with options_named({**FORMAT_OPTIONS, **FIT_OPTIONS}):
-        changes = {k: v for k, v in geometry_changes.items() if v is not None}
-        geometry = replace(geometry, **changes)
-        fmt = with_overrides(fmt, **format_changes)
-        options = CalibrationOptions(**options_changes)
-    specimens = read_specimens(data_dir, fmt, radius=geometry.radius)
-    run = calibrate_trilinear if kind == "trilinear" else calibrate_linear
-    result = run(specimens, geometry, options)
-    text = calibration_toml(result, fold_set, source=str(data_dir))
+        setup = calibration_setup(
+            options["config"],
+            geometry={"radius": options["radius"], "n_folds": options["n_folds"]},
+            fmt=format_changes(options),
+            options={**fit, **{k: options[o] for k, o in _BOOTSTRAP.items()}},
+        )
+    result = calibrate_directory(LawKind(kind), data_dir, setup)
     try:
-        out.parent.mkdir(parents=True, exist_ok=True)
-        out.write_text(text, encoding="utf-8")
+        text = write_law(result, options["fold_set"].value, out, source=str(data_dir))
         write_table(result, table_path)
-        _figure(result, figure)
+        write_calibration_band(result, figure)
     except OSError as err:
         raise typer.BadParameter(f"cannot write {out}: {err}", param_hint="--out") from None
+    console = Console(highlight=False)
     if not quiet:
         console.print(_summary(result))
         console.print(text, markup=False, soft_wrap=True)
     warn = Console(stderr=True, highlight=False)
     for caveat in result.caveats:  # also with --quiet
         warn.print(f"[yellow]warning:[/] {escape(caveat.message)}", soft_wrap=True)
-    n = result.band.n_specimens
     console.print(
-        f"{kind} law from {n} specimens, RMS residual {result.fit.rms:.4g} N; "
-        f"wrote {escape(str(out))}, {escape(str(figure))}, {escape(str(table_path))}",
+        f"{kind} law from {result.band.n_specimens} specimens, RMS residual "
+        f"{result.fit.rms:.4g} N; wrote {escape(str(out))}, {escape(str(figure))}, "
+        f"{escape(str(table_path))}",
         soft_wrap=True,
     )
 
@@ -256,25 +213,7 @@ def trilinear(
     quiet: Quiet = False,
 ) -> None:
     """Fit a trilinear (bistable) law to two-phase CFT specimens; write a TOML law block."""
-    options = dict(locals())
-    _run(
-        "trilinear",
-        data_dir,
-        out,
-        figure,
-        table,
-        config,
-        fold_set.value,
-        quiet,
-        {"radius": radius, "n_folds": n_folds},
-        format_changes(options),
-        {
-            "breakpoints": breakpoints.value,
-            "n_bootstrap": bootstrap,
-            "confidence": confidence,
-            "seed": seed,
-        },
-    )
+    _run("trilinear", dict(locals()), {"breakpoints": breakpoints.value})
 
 
 @app.command("linear")
@@ -306,17 +245,4 @@ def linear(
     quiet: Quiet = False,
 ) -> None:
     """Fit a linear law to CFT specimens; write a TOML law block (default: helical folds)."""
-    options = dict(locals())
-    _run(
-        "linear",
-        data_dir,
-        out,
-        figure,
-        table,
-        config,
-        fold_set.value,
-        quiet,
-        {"radius": radius, "n_folds": n_folds},
-        format_changes(options),
-        {"offset": offset, "n_bootstrap": bootstrap, "confidence": confidence, "seed": seed},
-    )
+    _run("linear", dict(locals()), {"offset": offset})

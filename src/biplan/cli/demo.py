@@ -30,7 +30,6 @@ from rich.markup import escape
 from rich.table import Table
 
 from biplan.cli._checks import output_directory
-from biplan.reproduction.facts import snapshot_steps
 
 if TYPE_CHECKING:
     from biplan.analysis.response.quasistatic import QuasiStaticPath
@@ -54,6 +53,7 @@ def _tube(config: Path | None) -> Tube:
 def _snapshots(path: QuasiStaticPath) -> dict[str, int]:
     """Step indices of the snapshot states B.1–B.3 that exist."""
     import biplan
+    from biplan.reproduction.facts import snapshot_steps
 
     if not np.any(np.isfinite(path.force)):
         raise biplan.ConvergenceError("no step of the displacement sweep converged")

@@ -23,6 +23,7 @@ from biplan.cli import (
     design,
     explore,
     maps,
+    path,
     plot,
     reproduce,
     respond,
@@ -52,7 +53,7 @@ app.command("respond")(respond.respond)
 app.command("sensitivity")(sensitivity.sensitivity)
 app.command("design")(design.design)
 app.command("states")(states.states)
-app.command("path")(states.path)
+app.command("path")(path.path)
 app.add_typer(maps.app, name="map")
 app.command("reproduce")(reproduce.reproduce)
 

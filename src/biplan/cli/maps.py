@@ -27,12 +27,18 @@ to run longer than :data:`WARN_SECONDS` gets a one-line warning with the estimat
 (:mod:`biplan.analysis.maps.cost`: measured points per second and core). Points that failed are
 counted on stderr (also with ``--quiet``); a map in which every point failed is written, then
 the command exits with status 2.
+
+The work is the library's: :class:`~biplan.analysis.maps.execution.Execution` (where chunks
+run), :func:`biplan.io.map_runs.open_map` (chunk store, sweep, ``map.nc``) and
+:func:`biplan.plot.maps.write_map_figures`.
 """
 
 from __future__ import annotations
 
 import sys
 import time
+from collections.abc import Callable, Iterator
+from contextlib import contextmanager
 from pathlib import Path
 from typing import TYPE_CHECKING, Annotated, Any, cast
 
@@ -44,10 +50,11 @@ from biplan._errors import ConfigError, ConvergenceError, check_integer
 from biplan.cli._checks import options_named, output_directory, refuse_unused
 
 if TYPE_CHECKING:
+    from biplan.analysis.maps.execution import Execution
     from biplan.analysis.maps.sweeps import Evaluator, Grid
     from biplan.model.tube import Tube
 
-__all__ = ["MAX_POINTS", "WARN_SECONDS", "app", "check_size", "design", "plot", "run_map",
+__all__ = ["MAX_POINTS", "WARN_SECONDS", "app", "check_size", "design", "instability", "plot",
            "stability"]  # fmt: skip
 
 
@@ -91,113 +98,6 @@ _GRID_OPTIONS = {
 }
 
 
-def run_map(
-    design: Tube,
-    grid: Grid,
-    evaluator: Evaluator,
-    out: Path,
-    *,
-    chunk_size: int,
-    resume: bool = False,
-    workers: int = 1,
-    scheduler: str | None = None,
-    threads: int = 0,
-    quiet: bool = False,
-) -> Any:
-    """Run a sweep into ``out`` (chunk store + ``map.nc``) with a Rich progress bar.
-
-    Damaged chunks of a resumed run and failed points are reported on stderr (also when
-    ``quiet``); the summary (unless ``quiet``) says how many chunks were reused.
-
-    Raises
-    ------
-    ConfigError
-        An invalid ``workers``, ``threads`` or output directory (before anything is computed).
-    ConvergenceError
-        Every point of the map failed (after ``map.nc`` is written).
-    """
-    _check_settings(out, workers, threads)
-    from rich.progress import (
-        BarColumn,
-        MofNCompleteColumn,
-        Progress,
-        TextColumn,
-        TimeElapsedColumn,
-        TimeRemainingColumn,
-    )
-
-    from biplan.analysis.maps.sweeps import chunk_indices, sweep
-    from biplan.analysis.scaleout import available_cores, dask_runner, thread_runner
-    from biplan.io.config import dump_config
-    from biplan.io.sweepstore import ChunkStore, save_map
-
-    description = {
-        "config": dump_config(design),
-        "quantity": evaluator.name,
-        "settings": evaluator.describe(),
-        "grid": {a.name: list(a.values) for a in grid.axes},
-        "chunk_size": chunk_size,
-    }
-    n_chunks = len(chunk_indices(grid, chunk_size))
-    with options_named({"out": "--out"}):
-        store = ChunkStore(out, description, n_chunks, resume)
-    warn = Console(stderr=True, highlight=False)
-    for chunk, why in sorted(store.damaged.items()):
-        warn.print(f"[yellow]warning:[/] chunk {chunk} of {escape(str(out))}: {escape(why)}; "
-                   "computing it again", soft_wrap=True)  # fmt: skip
-    runner = None
-    n_threads = threads or min(available_cores(), n_chunks)
-    if scheduler is not None or workers > 1:
-        runner = dask_runner(scheduler, workers)
-    elif n_threads > 1:
-        runner = thread_runner(n_threads)
-    console = Console(quiet=quiet or not sys.stderr.isatty(), stderr=True)
-    start = time.perf_counter()
-    first: list[int] = []
-
-    with Progress(
-        TextColumn("[bold]{task.description}"),
-        BarColumn(),
-        MofNCompleteColumn(),
-        TextColumn("{task.fields[rate]} points/s"),
-        TimeElapsedColumn(),
-        TextColumn("ETA"),
-        TimeRemainingColumn(),
-        console=console,
-    ) as bar:
-        task = bar.add_task(evaluator.name, total=grid.size, rate="-")
-
-        def progress(done: int, total: int) -> None:
-            if not first:
-                first.append(done)
-            elapsed = time.perf_counter() - start
-            new = done - first[0]
-            rate = f"{new / elapsed:.2f}" if new and elapsed > 0 else "-"
-            bar.update(task, completed=done, rate=rate)
-
-        ds = sweep(design, grid, evaluator, chunk_size=chunk_size, sink=store, runner=runner,
-                   progress=progress)  # fmt: skip
-    ds.attrs["config"] = description["config"]
-    save_map(ds, store.map_path)
-    elapsed = time.perf_counter() - start
-    n_failed = int(ds.attrs["n_failed"])
-    if n_failed == grid.size:
-        raise ConvergenceError(
-            f"every one of the {grid.size} points of the map failed (their status is in "
-            f"{store.map_path})"
-        )
-    if n_failed:
-        warn.print(f"[yellow]warning:[/] {n_failed} of {grid.size} points failed (status ≠ 0 "
-                   f"in {escape(str(store.map_path))})", soft_wrap=True)  # fmt: skip
-    reused = f", {store.reused} of {n_chunks} chunks reused" if resume else ""
-    Console(quiet=quiet, highlight=False).print(
-        f"{grid.size} points ({n_failed} failed{reused}) in {elapsed:.1f} s; "
-        f"wrote {escape(str(store.map_path))}",
-        soft_wrap=True,
-    )
-    return ds
-
-
 def check_size(
     grid: Grid,
     tube: Tube,
@@ -230,65 +130,120 @@ def check_size(
             "this large",
         )
     if seconds is not None and seconds > WARN_SECONDS:
-        Console(stderr=True, highlight=False).print(
-            f"[yellow]warning:[/] {grid.size} points ({shape} values): about "
-            f"{duration(seconds)} on {cores} core(s), at the measured rate of this machine "
-            "class (docs/maps.md)",
-            soft_wrap=True,
-        )
+        _warn(f"{grid.size} points ({shape} values): about {duration(seconds)} on {cores} "
+              "core(s), at the measured rate of this machine class (docs/maps.md)")  # fmt: skip
     return seconds
 
 
-def _cores(workers: int, scheduler: str | None, threads: int) -> int:
-    """Cores the map runs on (a scheduler's are unknown: counted as one)."""
-    from biplan.analysis.scaleout import available_cores
-
-    if scheduler is not None:
-        return 1
-    if workers > 1:
-        return workers
-    return threads or available_cores()
+def _warn(text: str) -> None:
+    Console(stderr=True, highlight=False).print(f"[yellow]warning:[/] {text}", soft_wrap=True)
 
 
-def _check_settings(out: Path, workers: int, threads: int) -> None:
-    """``--out``, ``--workers`` and ``--threads`` (by the commands first, and by run_map)."""
-    output_directory(out)
-    check_integer("--workers", workers, low=1)
-    check_integer("--threads", threads, low=0, note=" (0: one per available core)")
-
-
-def _check_runner(
+def _execution(
     ctx: typer.Context,
     out: Path,
     chunk_size: int | None,
     workers: int,
     scheduler: str | None,
     threads: int,
-) -> None:
+) -> Execution:
     """The checks of the options every map command shares, before anything is computed."""
-    _check_settings(out, workers, threads)
+    from biplan.analysis.maps.execution import Execution
+
+    output_directory(out)
+    with options_named({"workers": "--workers", "threads": "--threads"}):
+        execution = Execution(workers, scheduler, threads)
     if chunk_size is not None:
         check_integer("--chunk-size", chunk_size, low=1)
     if scheduler is not None:
         refuse_unused(ctx, {"workers": "--workers", "threads": "--threads"}, "with --scheduler")
     elif workers > 1:
         refuse_unused(ctx, {"threads": "--threads"}, "with --workers > 1")
+    return execution
 
 
-def _run_b_c_map(config: Path, grid: Any, ev: Any, out: Path, *, chunk_size: int,
-                 resume: bool, workers: int, scheduler: str | None, threads: int,
-                 max_points: int, quiet: bool) -> None:  # fmt: skip
-    """Load the tube, check the (b, C) grid and its size, then run the map (design and
-    instability maps)."""
+def _run(config: Path, grid: Grid, ev: Evaluator, out: Path, execution: Execution, *,
+         chunk_size: int, resume: bool, max_points: int, quiet: bool,
+         values: dict[str, float] | None = None) -> Any:  # fmt: skip
+    """Load the tube, check the grid and its size, then run the map into ``out`` with a
+    progress bar; damaged chunks and failed points are reported on stderr (also when
+    ``quiet``), the summary unless ``quiet``. Returns the map dataset.
+
+    Raises
+    ------
+    ConvergenceError
+        Every point of the map failed (after ``map.nc`` is written).
+    """
     import biplan
-    from biplan.analysis.maps.sweeps import check_grid
+    from biplan.analysis.maps.sweeps import apply_values, check_grid
+    from biplan.io.map_runs import open_map
 
     tube = biplan.load_config(config)
     with options_named(_GRID_OPTIONS):
+        tube = apply_values(tube, values) if values else tube
         check_grid(tube, grid, ev)
-    check_size(grid, tube, ev, max_points, _cores(workers, scheduler, threads), ("--b", "--C"))
-    run_map(tube, grid, ev, out, chunk_size=chunk_size, resume=resume, workers=workers,
-            scheduler=scheduler, threads=threads, quiet=quiet)  # fmt: skip
+    axes = tuple(_GRID_OPTIONS[a.name] for a in grid.axes)
+    check_size(grid, tube, ev, max_points, execution.cores, axes)
+    with options_named({"out": "--out"}):
+        job = open_map(tube, grid, ev, out, chunk_size=chunk_size, resume=resume)
+    for chunk, why in job.damaged.items():
+        _warn(f"chunk {chunk} of {escape(str(out))}: {escape(why)}; computing it again")
+    with _progress_bar(ev.name, grid.size, quiet) as progress:
+        run = job.run(execution, progress)
+    where = escape(str(run.path))
+    if run.all_failed:
+        raise ConvergenceError(
+            f"every one of the {run.n_points} points of the map failed (their status is in "
+            f"{run.path})"
+        )
+    if run.n_failed:
+        _warn(f"{run.n_failed} of {run.n_points} points failed (status ≠ 0 in {where})")
+    reused = f", {run.reused} of {run.n_chunks} chunks reused" if resume else ""
+    Console(quiet=quiet, highlight=False).print(
+        f"{run.n_points} points ({run.n_failed} failed{reused}) in {run.seconds:.1f} s; "
+        f"wrote {where}",
+        soft_wrap=True,
+    )
+    return run.dataset
+
+
+@contextmanager
+def _progress_bar(name: str, total: int, quiet: bool) -> Iterator[Callable[[int, int], None]]:
+    """A Rich progress bar on stderr (hidden when ``quiet`` or not a terminal) with the rate
+    of the points computed in this run; yields the sweep's ``progress(done, total)``."""
+    from rich.progress import (
+        BarColumn,
+        MofNCompleteColumn,
+        Progress,
+        TextColumn,
+        TimeElapsedColumn,
+        TimeRemainingColumn,
+    )
+
+    console = Console(quiet=quiet or not sys.stderr.isatty(), stderr=True)
+    start = time.perf_counter()
+    first: list[int] = []
+    with Progress(
+        TextColumn("[bold]{task.description}"),
+        BarColumn(),
+        MofNCompleteColumn(),
+        TextColumn("{task.fields[rate]} points/s"),
+        TimeElapsedColumn(),
+        TextColumn("ETA"),
+        TimeRemainingColumn(),
+        console=console,
+    ) as bar:
+        task = bar.add_task(name, total=total, rate="-")
+
+        def progress(done: int, total: int) -> None:
+            if not first:
+                first.append(done)  # chunks reused from an earlier run do not count
+            elapsed = time.perf_counter() - start
+            new = done - first[0]
+            rate = f"{new / elapsed:.2f}" if new and elapsed > 0 else "-"
+            bar.update(task, completed=done, rate=rate)
+
+        yield progress
 
 
 @app.command("design")
@@ -321,17 +276,14 @@ def design(
     from biplan.analysis.maps.design_map import ForceRamp, ResponseEvaluator
     from biplan.analysis.maps.sweeps import Grid, parse_axis
 
-    _check_runner(ctx, out, chunk_size, workers, scheduler, threads)
+    execution = _execution(ctx, out, chunk_size, workers, scheduler, threads)
     names = {**_GRID_OPTIONS, "ramp.rate": "--rate", "ramp.duration": "--duration",
              "ramp.n_steps": "--steps", "ramp.after_snap": "--after-snap"}  # fmt: skip
     with options_named(names):
         grid = Grid((parse_axis("b", b), parse_axis("C", c)))
         ramp = ForceRamp(rate=rate, duration=duration, n_steps=steps, after_snap=after_snap)
-    ev = ResponseEvaluator(ramp)
-    _run_b_c_map(
-        config, grid, ev, out, chunk_size=chunk_size, resume=resume, workers=workers,
-        scheduler=scheduler, threads=threads, max_points=max_points, quiet=quiet,
-    )  # fmt: skip
+    _run(config, grid, ResponseEvaluator(ramp), out, execution, chunk_size=chunk_size,
+         resume=resume, max_points=max_points, quiet=quiet)  # fmt: skip
 
 
 @app.command("instability")
@@ -356,14 +308,12 @@ def instability(
     from biplan.analysis.maps.instability_map import InstabilityEvaluator
     from biplan.analysis.maps.sweeps import Grid, parse_axis
 
-    _check_runner(ctx, out, chunk_size, workers, scheduler, threads)
+    execution = _execution(ctx, out, chunk_size, workers, scheduler, threads)
     with options_named({**_GRID_OPTIONS, "up_to": "--up-to"}):
         grid = Grid((parse_axis("b", b), parse_axis("C", c)))
         ev = InstabilityEvaluator(up_to=up_to)
-    _run_b_c_map(
-        config, grid, ev, out, chunk_size=chunk_size, resume=resume, workers=workers,
-        scheduler=scheduler, threads=threads, max_points=max_points, quiet=quiet,
-    )  # fmt: skip
+    _run(config, grid, ev, out, execution, chunk_size=chunk_size, resume=resume,
+         max_points=max_points, quiet=quiet)  # fmt: skip
 
 
 @app.command("stability")
@@ -397,27 +347,20 @@ def stability(
 ) -> None:
     """Displacement-controlled stability map over (C, U/l0) at fixed b: count of stable
     equilibria (1 mono, 2 bi, ≥3 multi) and the transition band."""
-    import biplan
     from biplan.analysis.maps.stability_map import StabilityEvaluator, stability_chunk_size
     from biplan.analysis.maps.stability_search import StabilitySearch
     from biplan.analysis.maps.stability_seeds import Seeding
-    from biplan.analysis.maps.sweeps import Grid, apply_values, check_grid, parse_axis
+    from biplan.analysis.maps.sweeps import Grid, parse_axis
 
-    _check_runner(ctx, out, chunk_size, workers, scheduler, threads)
+    execution = _execution(ctx, out, chunk_size, workers, scheduler, threads)
     names = {**_GRID_OPTIONS, "search.max_equilibria": "--max-equilibria",
              "search.seeding": "--seeding"}  # fmt: skip
     with options_named(names):
         grid = Grid((parse_axis("C", c), parse_axis("displacement", displacement)))
         ev = StabilityEvaluator(StabilitySearch(max_equilibria, seeding=cast(Seeding, seeding)))
-    tube = biplan.load_config(config)
-    with options_named(_GRID_OPTIONS):
-        tube = apply_values(tube, {"b": b})
-        check_grid(tube, grid, ev)
-    cores = _cores(workers, scheduler, threads)
-    check_size(grid, tube, ev, max_points, cores, ("--C", "--displacement"))
     size = chunk_size or stability_chunk_size(grid.shape[1])
-    ds = run_map(tube, grid, ev, out, chunk_size=size, resume=resume, workers=workers,
-                 scheduler=scheduler, threads=threads, quiet=quiet)  # fmt: skip
+    ds = _run(config, grid, ev, out, execution, chunk_size=size, resume=resume,
+              max_points=max_points, quiet=quiet, values={"b": b})  # fmt: skip
     if not quiet:
         counts = {k: int((ds["regime"].values == v).sum()) for k, v in
                   (("mono", 1), ("bi", 2), ("multi", 3))}  # fmt: skip
@@ -433,29 +376,11 @@ def plot(
     """Figures of a finished map: u_z.png and u_r.png (design), force.png (instability) or
     stability.png."""
     from biplan.io.sweepstore import load_map
-    from biplan.plot.files import figure_file
-    from biplan.plot.maps import design_map, stability_map
-    from biplan.plot.response import COLUMN_FIGSIZE
+    from biplan.plot.maps import map_figures, write_map_figures
 
     with options_named({"map": "DIRECTORY"}):
         ds = load_map(directory)
     folder = directory if directory.is_dir() else directory.parent
-    if "regime" in ds:
-        names: tuple[str, ...] = ("stability.png",)
-    elif "found" in ds:
-        names = ("force.png",)
-    else:
-        names = ("u_z.png", "u_r.png")
-    output_directory(folder, "DIRECTORY", files=names)
-    jobs: list[tuple[str, Any]] = []
-    if "regime" in ds:
-        jobs.append(("stability", lambda ax: stability_map(ds, ax=ax)))
-    elif "found" in ds:
-        jobs.append(("force", lambda ax: design_map(ds, "force", ax=ax)))
-    else:
-        for var in ("u_z", "u_r"):
-            jobs.append((var, lambda ax, v=var: design_map(ds, v, ax=ax)))
-    for name, draw in jobs:
-        with figure_file(folder / f"{name}.png", figsize=COLUMN_FIGSIZE) as (_, ax):
-            draw(ax)
-    Console(highlight=False).print("wrote " + ", ".join(str(folder / f"{n}.png") for n, _ in jobs))
+    output_directory(folder, "DIRECTORY", files=[f"{n}.png" for n in map_figures(ds)])
+    files = write_map_figures(ds, folder)
+    Console(highlight=False).print("wrote " + ", ".join(str(f) for f in files))

@@ -18,7 +18,8 @@ attribute rebuilds the model. Kinds:
 
 A kind that does not apply to the file (``response`` of a state catalogue, any kind of a map,
 which ``biplan map plot`` draws) is refused after the file is read and before anything is
-drawn; the message names the kinds that apply to it (:func:`kinds_for`).
+drawn; the message names the kinds that apply to it (:func:`kinds_for`); so is a ``--step``
+that is not a state of the file. The pictures are drawn by :mod:`biplan.plot.results`.
 
 Static figures are written in the format of the ``--out`` suffix (PNG, PDF, SVG, … — every
 format matplotlib writes); animations as ``.gif`` or ``.mp4``. A file name without a suffix,
@@ -31,21 +32,14 @@ from __future__ import annotations
 
 import enum
 from pathlib import Path
-from types import SimpleNamespace
-from typing import TYPE_CHECKING, Annotated, Any, cast
+from typing import Annotated, Any
 
-import numpy as np
 import typer
 from rich.console import Console
 from rich.markup import escape
 
 from biplan._errors import ConfigError, check_finite
 from biplan.cli._checks import figure_suffixes, output_file
-
-if TYPE_CHECKING:
-    from matplotlib.figure import Figure
-
-    from biplan.model.assembly import Model
 
 __all__ = ["Kind", "kinds_for", "plot", "suffixes"]
 
@@ -88,12 +82,6 @@ def _load(file: Path) -> Any:
         raise typer.BadParameter(f"cannot read {file}: {err}", param_hint="RESULT") from None
 
 
-def _model(dataset: Any) -> Model:
-    from biplan.io.results import model_of
-
-    return model_of(dataset)
-
-
 def kinds_for(dataset: Any) -> tuple[Kind, ...]:
     """The kinds that apply to a result dataset (:func:`~biplan.io.results.result_kind`):
     every kind for a path, trajectory or stable-branch sweep; development, tube and gallery for
@@ -125,56 +113,11 @@ def _check_kind(dataset: Any, kind: Kind, file: Path) -> None:
     raise ConfigError("--kind", kind.value, valid)
 
 
-def _root(ax: Any) -> Figure:
-    """The figure an Axes belongs to."""
-    return cast("Figure", ax.get_figure(root=True))
-
-
-def _state(dataset: Any, step: int) -> np.ndarray:
-    q = np.asarray(dataset["q"].values, dtype=float)
-    if not -len(q) <= step < len(q):
-        raise typer.BadParameter(f"{step} outside 0..{len(q) - 1}", param_hint="--step")
-    return q[step]
-
-
-def _figure(dataset: Any, kind: Kind, step: int, color_by: str, guides: bool, view: dict) -> Figure:
-    from biplan import plot
-    from biplan.plot import diagnostics
-    from biplan.plot.gallery import gallery
-
-    if kind is Kind.gallery:
-        return gallery(dataset, _model(dataset), color_by=color_by, **view)
-    if kind in (Kind.development, Kind.tube):
-        model = _model(dataset)
-        q = _state(dataset, step)
-        if kind is Kind.development:
-            return _root(plot.development(model, q, color_by=color_by, guides=guides))
-        return _root(plot.cylinder(model, q, color_by=color_by, colorbar=True, **view))
-    if kind is Kind.response:
-        n = dataset["force"].size
-        stable = dataset["stable"].values if "stable" in dataset else np.ones(n)
-        switched = dataset["switched"].values if "switched" in dataset else np.zeros(n)
-        # under pressure control the curve shows the controlled pressure [kPa], as respond's
-        pressure = dataset.attrs.get("control") == "pressure" and "load_parameter" in dataset
-        curve = SimpleNamespace(
-            displacement=dataset["displacement"].values,
-            force=dataset["load_parameter" if pressure else "force"].values,
-            stable=np.asarray(stable, dtype=bool),
-            switched=np.asarray(switched, dtype=bool),
-        )
-        if "limit_point" in dataset:
-            curve.limit_point = np.asarray(dataset["limit_point"].values, dtype=bool)
-        ax = plot.force_displacement(cast("Any", curve))
-        if pressure:
-            unit = dataset["load_parameter"].attrs.get("units", "kPa")
-            ax.set_ylabel(f"pressure $p$ [{unit}]")
-        return _root(ax)
-    draw = {
-        Kind.energy: diagnostics.energy_by_fold_set,
-        Kind.eigenvalue: diagnostics.min_eigenvalue,
-        Kind.phases: diagnostics.phase_fractions,
-    }[kind]
-    return _root(draw(dataset))
+def _check_step(dataset: Any, step: int) -> None:
+    """Refuse a ``--step`` that is not a state of ``dataset`` (from its end when negative)."""
+    n = dataset["q"].shape[0]
+    if not -n <= step < n:
+        raise typer.BadParameter(f"{step} outside 0..{n - 1}", param_hint="--step")
 
 
 def plot(
@@ -216,42 +159,22 @@ def plot(
 ) -> None:
     """Draw a result file: response, development, tube, animation, gallery, diagnostics."""
     from biplan.plot.files import pyplot
+    from biplan.plot.results import write_result
 
     pyplot()  # every figure of this command goes to a file
     output_file(out, suffixes=suffixes(kind))
-    view = {"elev": check_finite("--elev", elev), "azim": check_finite("--azim", azim)}
+    check_finite("--elev", elev)
+    check_finite("--azim", azim)
     check_finite("--fps", fps)
     if dpi is not None:
         check_finite("--dpi", dpi)
     dataset = _load(result)
     _check_kind(dataset, kind, result)
-    suffix = out.suffix.lower()
+    if kind in (Kind.development, Kind.tube):
+        _check_step(dataset, step)
     try:
-        out.parent.mkdir(parents=True, exist_ok=True)
-        if kind is Kind.animation:
-            from biplan.plot.animation import animate
-
-            model = _model(dataset)
-            animate(
-                dataset,
-                model,
-                out,
-                fps=fps,
-                stride=stride,
-                dpi=dpi or 100,
-                color_by=color_by.value,
-                elev=elev,
-                azim=azim,
-            )
-        elif kind is Kind.tube and suffix in (".vtu", ".pvd"):
-            from biplan.io.vtk import export_result
-
-            _state(dataset, step)
-            export_result(dataset, _model(dataset), out, stride=stride, index=step)
-        else:
-            from biplan.plot.files import DPI, save
-
-            save(_figure(dataset, kind, step, color_by.value, guides, view), out, dpi=dpi or DPI)
+        write_result(dataset, kind.value, out, step=step, color_by=color_by.value, guides=guides,
+                     fps=fps, stride=stride, dpi=dpi, elev=elev, azim=azim)  # fmt: skip
     except OSError as err:
         raise typer.BadParameter(f"cannot write {out}: {err}", param_hint="--out") from None
     Console(highlight=False).print(f"wrote {escape(str(out))}")

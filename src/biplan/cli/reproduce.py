@@ -23,9 +23,6 @@ from rich.markup import escape
 
 from biplan._errors import ConfigError
 from biplan.cli._checks import output_directory
-from biplan.reproduction.report import run_reproduction
-from biplan.reproduction.settings import Resolution
-from biplan.reproduction.stages import STAGES
 
 __all__ = ["TPC_SIGNS", "reproduce"]
 
@@ -64,6 +61,10 @@ def reproduce(
     """Regenerate the paper's figures (Fig. 3, Fig. 4, the supplement's distributions and
     CFT calibration, Movie S1) and write REPRODUCTION.md with a computed verdict per claim."""
     from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, TimeElapsedColumn
+
+    from biplan.reproduction.report import run_reproduction
+    from biplan.reproduction.settings import Resolution
+    from biplan.reproduction.stages import STAGES
 
     if tpc_sign not in TPC_SIGNS:
         raise ConfigError("--tpc-sign", tpc_sign, f"one of {', '.join(TPC_SIGNS)}")

@@ -13,6 +13,7 @@ from __future__ import annotations
 
 import json
 import math
+from collections.abc import Mapping
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
@@ -74,7 +75,7 @@ def _describe(n_modules: int, n_bits: int) -> str:
     return f"{n_modules} modules and {n_bits} bistable folds"
 
 
-def read_catalogue(path: str | Path, tube: Tube) -> Any:
+def read_catalogue(path: str | Path, tube: Tube, states: Mapping[str, str] | None = None) -> Any:
     """The dataset of a catalogue file of ``tube`` (loaded into memory), checked.
 
     Parameters
@@ -84,13 +85,17 @@ def read_catalogue(path: str | Path, tube: Tube) -> Any:
         the tube's configuration in ``attrs["config"]``).
     tube : Tube
         The tube the catalogue must belong to.
+    states : mapping of str to str, optional
+        State names the catalogue must hold, by the parameter an error names (``{"START":
+        "2A"}``).
 
     Raises
     ------
     ConfigError
         Parameter ``"catalogue"``: the file is missing or unreadable, is not a state
         catalogue, lacks a variable, or belongs to another tube (the message says how the
-        tubes differ).
+        tubes differ); a parameter of ``states``: a state the catalogue does not hold (the
+        message lists those it holds).
     """
     import xarray as xr
 
@@ -136,6 +141,10 @@ def read_catalogue(path: str | Path, tube: Tube) -> Any:
             "the catalogue of this tube (its geometry or fold laws differ from the "
             "configuration's: its states are not equilibria of this tube)",
         )
+    held = [str(n) for n in dataset["state"].values]
+    for parameter, name in (states or {}).items():
+        if name not in held:
+            raise ConfigError(parameter, name, f"a stable state of {path}: {', '.join(held)}")
     return dataset
 
 

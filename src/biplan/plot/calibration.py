@@ -10,16 +10,19 @@ median ± 1 SD band (the gap between measured phases drawn as a dashed straight 
 grid points where the prediction leaves the band and states the RMS error.
 
 Both follow the :mod:`biplan.plot` contract ``f(result, *, ax=None) -> Axes``; colours are
-Okabe–Ito (colour-blind safe).
+Okabe–Ito (colour-blind safe). :func:`write_calibration_band` writes the first to a file
+(``biplan calibrate --figure``).
 """
 
 from __future__ import annotations
 
+from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
 from biplan.laws import TrilinearLaw
+from biplan.plot.files import figure_file
 from biplan.plot.response import COLUMN_FIGSIZE, FONT_SIZE, _new_axes, _style
 
 if TYPE_CHECKING:
@@ -29,7 +32,7 @@ if TYPE_CHECKING:
     from biplan.calibration.specimens import Band
     from biplan.calibration.validation import BandComparison
 
-__all__ = ["calibration_band", "validation_band"]
+__all__ = ["calibration_band", "validation_band", "write_calibration_band"]
 
 #: Okabe–Ito colours: band/median (blue), fit or prediction (vermillion), specimens (grey).
 BAND_COLOR = "#0072B2"
@@ -171,3 +174,10 @@ def validation_band(result: BandComparison, *, ax: Axes | None = None) -> Axes:
         )
     _finish(ax, r"$U$ [mm]")
     return ax
+
+
+def write_calibration_band(result: Calibration, file: Path) -> None:
+    """Write :func:`calibration_band` of ``result`` to ``file`` (one journal column; the
+    format follows the suffix)."""
+    with figure_file(file, figsize=COLUMN_FIGSIZE) as (_, ax):
+        calibration_band(result, ax=ax)

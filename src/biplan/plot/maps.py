@@ -9,23 +9,37 @@
   cell reaches halfway to its neighbours, so the cells of the outer points are half cells),
   and the legend names only the regimes the map holds.
 
+:func:`write_map_figures` writes the figures of a finished map (``biplan map plot``): ``u_z.png``
+and ``u_r.png`` of a design map, ``force.png`` of a first-instability map, ``stability.png`` of
+a stability map (:func:`map_figures`).
+
 Same contract as every plotting function: ``f(ds, *, ax=None, ...) -> Axes``; a new
 journal-column figure (3.4 × 2.6 in, 8 pt) when no Axes is given; no ``show()``.
 """
 
 from __future__ import annotations
 
+from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
 from biplan._errors import ConfigError
+from biplan.plot.files import figure_file
 from biplan.plot.response import COLUMN_FIGSIZE, FONT_SIZE, _new_axes, _style, cell_edges
 
 if TYPE_CHECKING:
     from matplotlib.axes import Axes
 
-__all__ = ["REGIME_COLORS", "VALIDATED_DESIGN", "design_map", "grid_edges", "stability_map"]
+__all__ = [
+    "REGIME_COLORS",
+    "VALIDATED_DESIGN",
+    "design_map",
+    "grid_edges",
+    "map_figures",
+    "stability_map",
+    "write_map_figures",
+]
 
 #: (b, C) of the validated semi-bistable design (SI Table calib).
 VALIDATED_DESIGN = (0.573, 1.444)
@@ -219,3 +233,29 @@ def _band_outline(
         if not b[j + 2, i + 1]:  # above
             segs.append(((x0, y1), (x1, y1)))
     return segs
+
+
+def map_figures(ds: Any) -> tuple[str, ...]:
+    """The figures (names without suffix) :func:`write_map_figures` draws of a map:
+    ``stability`` of a stability map, ``force`` of a first-instability map, else ``u_z`` and
+    ``u_r`` (a design map)."""
+    if "regime" in ds:
+        return ("stability",)
+    if "found" in ds:
+        return ("force",)
+    return ("u_z", "u_r")
+
+
+def write_map_figures(ds: Any, folder: Path) -> list[Path]:
+    """Write every figure of the map ``ds`` (:func:`map_figures`) as ``folder/NAME.png``, one
+    journal column each; returns the files written."""
+    files = []
+    for name in map_figures(ds):
+        file = folder / f"{name}.png"
+        with figure_file(file, figsize=COLUMN_FIGSIZE) as (_, ax):
+            if name == "stability":
+                stability_map(ds, ax=ax)
+            else:
+                design_map(ds, name, ax=ax)
+        files.append(file)
+    return files

@@ -12,22 +12,39 @@
   how many are;
 * :func:`distributions` — state counts over Θ, u_z/l₀ and u_r/l₀ and the branch-wise RMS
   relations, from :func:`biplan.analysis.states.hierarchy.hierarchy`.
+
+:func:`write_state_figures` writes the three as :data:`STATE_FIGURES` (``biplan states``; the
+paper's pathways p1–p3 highlighted on the transition diagram).
 """
 
 from __future__ import annotations
 
 from collections.abc import Sequence
+from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
+from biplan.plot.files import pyplot, save
 from biplan.plot.response import FONT_SIZE, _new_axes, _style
 
 if TYPE_CHECKING:
     import networkx as nx
     from matplotlib.axes import Axes
 
-__all__ = ["distributions", "endpoint_space", "readable_labels", "transition_diagram"]
+    from biplan.analysis.states.catalogue import StateCatalogue
+
+__all__ = [
+    "STATE_FIGURES",
+    "distributions",
+    "endpoint_space",
+    "readable_labels",
+    "transition_diagram",
+    "write_state_figures",
+]
+
+#: The figures :func:`write_state_figures` writes, in order.
+STATE_FIGURES = ("transitions.png", "endpoint_space.png", "distributions.png")
 
 #: Height [in] per state of the tallest column of :func:`transition_diagram` (a 4.2-in figure
 #: holds 20; larger catalogues, e.g. 242 states of a five-module tube, get a taller figure).
@@ -282,3 +299,24 @@ def distributions(hierarchy: Any, *, fig: Any = None) -> np.ndarray:
     for a in axes:
         _style(a)
     return axes
+
+
+def write_state_figures(catalogue: StateCatalogue, graph: nx.Graph, out: Path) -> list[Path]:
+    """Write :data:`STATE_FIGURES` of a catalogue and its transition graph into the existing
+    directory ``out``: the transition diagram with the paper's pathways
+    (:func:`~biplan.analysis.states.transitions.paper_pathways`), the endpoint space and the
+    distributions; returns the paths."""
+    from biplan.analysis.states.hierarchy import hierarchy
+    from biplan.analysis.states.transitions import paper_pathways
+
+    pyplot()  # the figures go to files
+    paths, names = paper_pathways(graph)
+    draw = (
+        lambda: transition_diagram(graph, pathways=paths, names=names).figure,
+        lambda: endpoint_space(catalogue.to_dataset()).figure,
+        lambda: distributions(hierarchy(catalogue))[0].figure,
+    )
+    files = [out / name for name in STATE_FIGURES]
+    for figure, file in zip(draw, files, strict=True):
+        save(figure(), file)  # one figure open at a time
+    return files

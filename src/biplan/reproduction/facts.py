@@ -18,6 +18,7 @@ from typing import Any
 import numpy as np
 
 from biplan.analysis.response.summary import phase_one_end
+from biplan.analysis.states.transitions import PAPER_PATHWAYS
 
 __all__ = [
     "PAPER_B",
@@ -47,8 +48,6 @@ PAPER_N_STATES = 34
 PAPER_SUB_BRANCH = 0.9
 #: The paper's states named in the main text (Fig. 4 A–B).
 PAPER_STATES = ("00", "2A", "1B", "66")
-#: The paper's pathways (start, target).
-PAPER_PATHWAYS = {"p1": ("2A", "66"), "p2": ("2A", "1B"), "p3": ("66", "00")}
 
 
 def snapshot_steps(force: Any, stable: Any, switched: Any) -> dict[str, int]:

@@ -23,7 +23,8 @@ from dataclasses import dataclass
 import numpy as np
 
 from biplan.analysis.modes import rayleigh_at
-from biplan.analysis.response.quasistatic import QuasiStaticPath, displacement_sweep
+from biplan.analysis.response import quasistatic
+from biplan.analysis.response.quasistatic import QuasiStaticPath
 from biplan.analysis.response.summary import phase_one_end, summarize
 from biplan.model.assembly import Load, Model
 from biplan.solvers.continuation import ArcLength, trace_path
@@ -74,7 +75,7 @@ def demo_sweep(
         :func:`~biplan.analysis.response.quasistatic.displacement_sweep`).
     """
     targets = np.linspace(MAX_DISPLACEMENT / steps, MAX_DISPLACEMENT, steps)
-    return displacement_sweep(model, targets, start=start, progress=progress)
+    return quasistatic.displacement_sweep(model, targets, start=start, progress=progress)
 
 
 def phase_one(path: QuasiStaticPath) -> slice:

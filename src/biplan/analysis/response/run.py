@@ -35,8 +35,9 @@ import numpy as np
 
 from biplan._errors import ConfigError
 from biplan.analysis.modes import rayleigh_at
+from biplan.analysis.response import quasistatic
 from biplan.analysis.response.loadcontrol import PEAK_METHOD, first_snap, load_response
-from biplan.analysis.response.quasistatic import QuasiStaticPath, displacement_sweep
+from biplan.analysis.response.quasistatic import QuasiStaticPath
 from biplan.analysis.response.settings import Method, QuasiStatic, Ramp
 from biplan.analysis.response.summary import ResponseSummary, summarize
 from biplan.model.assembly import Model
@@ -187,7 +188,7 @@ def stable_sweep(model: Model, settings: QuasiStatic) -> QuasiStaticPath:
         raise ConfigError("step", settings.step, f"≥ |stop| / max_steps = {fewest:g} mm")
     stop = settings.stop
     ref = relaxed_reference(model, throw=True)
-    return displacement_sweep(model, np.linspace(stop / n, stop, n), start=ref)
+    return quasistatic.displacement_sweep(model, np.linspace(stop / n, stop, n), start=ref)
 
 
 def _quasi_static(model: Model, kind: ControlKind, settings: QuasiStatic) -> Path:

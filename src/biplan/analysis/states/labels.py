@@ -9,13 +9,23 @@ for seven folds: 0011011 → 00011011 → ``1B``.
 
 from __future__ import annotations
 
+import re
 from collections.abc import Sequence
 
 from biplan._errors import ConfigError
 from biplan.geometry import FoldRef
 from biplan.model.tube import Tube
 
-__all__ = ["bistable_folds", "bits_to_label", "hamming", "label_to_bits", "physical_folds"]
+__all__ = [
+    "bistable_folds",
+    "bits_to_label",
+    "hamming",
+    "label_to_bits",
+    "physical_folds",
+    "state_name",
+]
+
+_STATE_NAME = re.compile(r"^([0-9A-Fa-f]+)(?:\.([0-9]+))?$")
 
 
 def physical_folds(tube: Tube) -> tuple[FoldRef, ...]:
@@ -74,3 +84,41 @@ def hamming(a: Sequence[int], b: Sequence[int]) -> int:
     if len(a) != len(b):
         raise ConfigError("bits", (tuple(a), tuple(b)), "sequences of equal length")
     return sum(int(x != y) for x, y in zip(a, b, strict=True))
+
+
+def state_name(parameter: str, text: str, tube: Tube) -> str:
+    """The state name ``text`` checked against the tube's bistable folds: hexadecimal digits
+    in any case, as many as the folds need, below 2^n_folds, optionally followed by ``.k``
+    (k ≥ 2, a repeated label); returned upper case (``"2a"`` → ``"2A"``, ``" 1b.2"`` →
+    ``"1B.2"``).
+
+    Parameters
+    ----------
+    parameter : str
+        What errors name (e.g. the CLI's ``START``).
+    text : str
+        The name as typed.
+    tube : Tube
+
+    Raises
+    ------
+    ConfigError
+        Naming ``parameter``, ``text`` and the valid form.
+    """
+    n_bits = len(bistable_folds(tube))
+    digits = (n_bits + 3) // 4
+    if n_bits == 0:
+        raise ConfigError(parameter, text, "a state of a tube with bistable folds (it has none)")
+    valid = (
+        f"{digits} hexadecimal digit{'s' if digits > 1 else ''} from {0:0{digits}X} to "
+        f"{2**n_bits - 1:0{digits}X} ({n_bits} bistable folds, any case), optionally followed "
+        "by .2, .3, … (a repeated label)"
+    )
+    match = _STATE_NAME.match(text.strip())
+    if match is None or (match[2] is not None and int(match[2]) < 2):
+        raise ConfigError(parameter, text, valid)
+    try:
+        label_to_bits(match[1].upper(), n_bits)
+    except ConfigError:
+        raise ConfigError(parameter, text, valid) from None
+    return match[1].upper() + ("" if match[2] is None else f".{match[2]}")

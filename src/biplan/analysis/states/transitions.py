@@ -5,11 +5,17 @@ differ in exactly one fold (Hamming distance one). A pathway between two states 
 path of the graph — by number of fold switches, or, when the edges carry energy barriers
 (:func:`biplan.analysis.states.barriers.annotate_barriers`), by the total barrier climbed in the
 direction of travel.
+
+:func:`paper_pathways` finds the paper's pathways p1–p3 (:data:`PAPER_PATHWAYS`) in a graph;
+:func:`pathway_steps` describes each step of a pathway (fold, barrier, departure force).
 """
 
 from __future__ import annotations
 
-from collections.abc import Callable, Iterable
+import itertools
+import math
+from collections.abc import Callable, Iterable, Sequence
+from dataclasses import dataclass
 from pathlib import Path as FilePath
 from typing import Any
 
@@ -23,12 +29,20 @@ from biplan.analysis.states.labels import hamming
 from biplan.model.assembly import Model
 
 __all__ = [
+    "PAPER_PATHWAYS",
+    "PathwayStep",
     "annotate_barriers",
     "barrier_weight",
+    "paper_pathways",
     "pathway",
+    "pathway_steps",
     "transition_graph",
+    "unannotated_edges",
     "write_graphml",
 ]
+
+#: The paper's pathways (SI transition section): p1 2A → 66, p2 2A → 1B, p3 66 → 00.
+PAPER_PATHWAYS = {"p1": ("2A", "66"), "p2": ("2A", "1B"), "p3": ("66", "00")}
 
 
 def transition_graph(catalogue: StateCatalogue) -> nx.Graph:
@@ -113,6 +127,78 @@ def pathway(
         raise ConfigError(
             "target", target, f"a state connected to {start} by single-fold transitions"
         ) from None
+
+
+def paper_pathways(graph: nx.Graph) -> tuple[list[list[str]], list[str]]:
+    """The pathways of :data:`PAPER_PATHWAYS` that ``graph`` holds (fewest fold switches)
+    and their names (``"p1: 2A→66"``); those whose states are missing or not connected are
+    left out."""
+    paths: list[list[str]] = []
+    names: list[str] = []
+    for name, (a, b) in PAPER_PATHWAYS.items():
+        if a in graph and b in graph:
+            try:
+                found = pathway(graph, a, b)
+            except ConfigError:  # not connected by single-fold transitions
+                continue
+            paths.append([str(n) for n in found])
+            names.append(f"{name}: {a}→{b}")
+    return paths, names
+
+
+@dataclass(frozen=True)
+class PathwayStep:
+    """One step of a pathway: the fold that switches and what it costs.
+
+    Attributes
+    ----------
+    start, end : str
+        The states (names) before and after the step.
+    fold_name : str
+        The fold that switches (``"helical 2"``, ``"circular 1|2"``; modules from 1).
+    barrier : float
+        Barrier [N·mm] climbed from ``start``: E_saddle − E_start (NaN without barriers).
+    mep_status : str
+        Status of the edge's minimum-energy path (``"?"`` without barriers).
+    departure_force : float or None
+        End force [N] at which ``start`` loses stability on a force ramp (NaN when it does
+        not); None when it was not computed from ``start``.
+    """
+
+    start: str
+    end: str
+    fold_name: str
+    barrier: float
+    mep_status: str
+    departure_force: float | None
+
+
+def pathway_steps(graph: nx.Graph, path: Sequence[str]) -> list[PathwayStep]:
+    """The steps of a pathway ``path`` (state names) of ``graph``, from the edge attributes
+    :func:`annotate_barriers` stores."""
+    steps = []
+    for u, v in itertools.pairwise(path):
+        d = graph.edges[u, v]
+        steps.append(
+            PathwayStep(
+                start=u,
+                end=v,
+                fold_name=d["fold_name"],
+                barrier=d.get("saddle_energy", math.nan) - graph.nodes[u]["energy"],
+                mep_status=d.get("mep_status", "?"),
+                departure_force=d.get("departure_force", math.nan)
+                if d.get("forward_from") == u
+                else None,
+            )
+        )
+    return steps
+
+
+def unannotated_edges(graph: nx.Graph, paths: Iterable[Sequence[str]]) -> list[tuple[str, str]]:
+    """The steps (start, end) of ``paths`` whose edge carries no barrier yet, each once, in
+    the order of the paths."""
+    steps = dict.fromkeys(e for p in paths for e in itertools.pairwise(p))
+    return [e for e in steps if "saddle_energy" not in graph.edges[e]]
 
 
 def annotate_barriers(
