@@ -34,8 +34,8 @@ def no_solve(monkeypatch: pytest.MonkeyPatch) -> None:
     import biplan.analysis.response.quasistatic
     import biplan.analysis.states.search
     import biplan.calibration.calibrate
-    import biplan.reproduction.report
     import biplan.io.results
+    import biplan.reproduction.report
 
     monkeypatch.setattr(biplan, "Model", _forbidden)
     monkeypatch.setattr(biplan.analysis.maps.sweeps, "sweep", _forbidden)
