@@ -6,6 +6,7 @@ from __future__ import annotations
 import functools
 import json
 import os
+import shutil
 import subprocess
 import sys
 from pathlib import Path
@@ -77,6 +78,27 @@ def test_an_edited_biplan_never_reads_a_stale_kernel(store, monkeypatch) -> None
     monkeypatch.setattr(_kernels, "_source_fingerprint", lambda: "edited")
     stored_jit(_cubic, "cubic")(params, x)
     assert len(list(store.glob("cubic-*.kernel"))) == 2
+
+
+def test_the_fingerprint_covers_every_module_of_the_package(tmp_path, monkeypatch) -> None:
+    """An edit anywhere in biplan (a solver, not only the kernel machinery) changes the
+    fingerprint: the store must never serve a kernel compiled from older physics."""
+    import biplan
+
+    package = Path(biplan.__file__).resolve().parent
+    copy = tmp_path / "biplan"
+    shutil.copytree(package, copy, ignore=shutil.ignore_patterns("__pycache__"))
+    fake = copy / "_compile" / "kernel.py"
+    monkeypatch.setattr(_kernels, "__file__", str(fake))
+    _kernels._source_fingerprint.cache_clear()
+    try:
+        before = _kernels._source_fingerprint()
+        solver = copy / "solvers" / "_relaxkernel.py"
+        solver.write_text(solver.read_text() + "\n# edited\n")
+        _kernels._source_fingerprint.cache_clear()
+        assert _kernels._source_fingerprint() != before
+    finally:
+        _kernels._source_fingerprint.cache_clear()
 
 
 def test_a_damaged_entry_is_exported_again(store) -> None:

@@ -69,7 +69,7 @@ def kernel_store() -> Path | None:
 @functools.cache
 def _source_fingerprint() -> str:
     """sha256 of every ``.py`` file of the installed biplan package (path and bytes)."""
-    root = Path(__file__).resolve().parent
+    root = Path(__file__).resolve().parent.parent
     digest = hashlib.sha256()
     for path in sorted(root.rglob("*.py")):
         digest.update(str(path.relative_to(root)).encode())

@@ -24,20 +24,25 @@ from __future__ import annotations
 
 from typing import Any, NamedTuple
 
+from biplan._compile import linalg
 from biplan._compile.setup import jax, jnp
 from biplan.geometry import chain
 from biplan.geometry.layout import TubeLayout
 from biplan.model import elements
+from biplan.model.elements.reduced import full_coordinates, n_reduced, reduced_terms
 from biplan.model.params import AT_REST, Load, ModelParams
 from biplan.options import ContactForm
 
 __all__ = [
     "StateData",
     "curvature",
+    "full_state",
     "kkt_jacobian",
     "kkt_jacobian_at_rest",
     "kkt_matrix",
     "lagrangian_hessian",
+    "reduced_kkt_jacobian_at_rest",
+    "reduced_residual_at_rest",
     "residual",
     "residual_at_rest",
     "sfb",
@@ -296,3 +301,38 @@ def _sizes(layout: TubeLayout) -> tuple[int, int, int]:
 def _split(layout: TubeLayout, z: Array) -> tuple[Array, Array, Array, Array]:
     nq, ng, nc = _sizes(layout)
     return z[:nq], z[nq : nq + ng], z[nq + ng : nq + ng + nc], z[nq + ng + nc]
+
+
+def reduced_residual_at_rest(layout: TubeLayout, p: ModelParams, v: Array) -> Array:
+    """The KKT residual at rest in reduced coordinates (:mod:`biplan.model.elements.reduced`):
+    v = [x, λ_∂, μ] (N + Nc + n_c + 1), r = [∇_x Π − (∂w_∂/∂x)ᵀλ_∂, φ_SFB(w_∂ + cλ_∂, λ_∂), μ].
+    The proximal bias is not part of it (the state search runs without one)."""
+    nx = n_reduced(layout)
+    lam_c = v[nx:-1]
+    t = reduced_terms(layout, p, v[:nx], lam_c, second_order=False)
+    contacts = sfb(t.gaps + p.compliance * lam_c, lam_c, p.smoothing)
+    return jnp.concatenate([t.gradient, contacts, v[-1:]])
+
+
+def reduced_kkt_jacobian_at_rest(layout: TubeLayout, p: ModelParams, v: Array) -> Array:
+    """∂r/∂v of :func:`reduced_residual_at_rest`: :func:`kkt_matrix` without guide rows."""
+    nx = n_reduced(layout)
+    lam_c = v[nx:-1]
+    t = reduced_terms(layout, p, v[:nx], lam_c)
+    no_guides = jnp.zeros((0, nx))
+    return kkt_matrix(
+        p, AT_REST.for_kernel(), t.hessian, no_guides, t.gap_jacobian, jnp.zeros(nx), t.gaps, lam_c
+    )
+
+
+def full_state(layout: TubeLayout, p: ModelParams, v: Array) -> Array:
+    """The full state z = [q, λ, λ_∂, μ] of a reduced one v = [x, λ_∂, μ]: q = q(x), and the
+    guide multipliers λ by least squares on the stationarity rows ∇Π + Gᵀλ − Cᵀλ_∂ = 0 (exact
+    where v solves the reduced system, :mod:`biplan.model.elements.reduced`)."""
+    nx = n_reduced(layout)
+    _, ng, _ = _sizes(layout)
+    q = full_coordinates(layout, p, v[:nx])
+    local = elements.local_terms(layout, p, q, jnp.zeros(ng), v[nx:-1])
+    g_mat = local.guide_jacobian
+    lam = -linalg.solve(g_mat @ g_mat.T, g_mat @ local.gradient)
+    return jnp.concatenate([q, lam, v[nx:]])

@@ -61,7 +61,7 @@ class Enumeration:
     Parameters
     ----------
     penalty_stiffness : float
-        k_p [N/mm] of the guide and contact penalties of the descent (the final KKT solve is
+        k_p [N/mm] of the contact penalties of the descent (the final KKT solve is
         exact; k_p only sets how close the descent lands).
     max_iterations : int
         Most modified-Newton descent iterations per seed.
