@@ -6,13 +6,16 @@ For each N of ``--sizes`` (default 4 5 6), in one process:
   cold (a new layout: its kernels compile; the persistent cache may hold them) and warm;
 * neighbourhood search (:attr:`~biplan.analysis.states.search.Search.NEIGHBOURHOOD`), warm, with the
   seeds it tried and whether it found the same states;
+* the exhaustive search on one thread (``Enumeration(threads=1)``) against the default (one
+  thread per core), for N ≤ ``--one-thread-max``;
 * the baseline in the same run: the relaxation of every seed in lock-step ``vmap`` chunks of 16
   (the same pure one-seed ``relax_seed`` the pool runs, as the enumeration ran before the
   refilled lanes), warm, and its ratio to the pool's relaxation.
 
 Usage::
 
-    .venv/bin/python benchmarks/bench_states.py [--sizes 4 5 6] [--baseline-max 5] [--dask 6]
+    .venv/bin/python benchmarks/bench_states.py [--sizes 4 5 6] [--baseline-max 5]
+        [--one-thread-max 6] [--dask 6]
 
 ``--dask N``: the exhaustive search of N modules on a Dask ``LocalCluster`` of 1 and of 2
 workers (pinned, one thread each), timed from the moment the warmed-up cluster is ready to the
@@ -71,6 +74,7 @@ def main() -> None:
     parser = argparse.ArgumentParser()
     parser.add_argument("--sizes", type=int, nargs="*", default=[4, 5, 6])
     parser.add_argument("--baseline-max", type=int, default=5)
+    parser.add_argument("--one-thread-max", type=int, default=6)
     parser.add_argument("--dask", type=int, default=0, help="modules of the Dask run (0: none)")
     args = parser.parse_args()
     if args.dask:
@@ -79,15 +83,22 @@ def main() -> None:
         model = biplan.Model(biplan.designs.fully_bistable(n_modules=n))
         cat, cold = timed(enumerate_states, model, confirm=True)
         cat, warm = timed(enumerate_states, model, confirm=True)
-        near, _ = timed(enumerate_states, model, search=Search.NEIGHBOURHOOD)
-        near, warm_near = timed(enumerate_states, model, search=Search.NEIGHBOURHOOD)
+        near, warm_near = timed(enumerate_states, model, search=Search.NEIGHBOURHOOD, confirm=True)
         same = [s.name for s in near.states] == [s.name for s in cat.states]
         print(
             f"N={n}: {len(cat.seeds)} seeds -> {len(cat)} states; exhaustive cold {cold:.1f} s, "
-            f"warm {warm:.2f} s ({1e3 * warm / len(cat.seeds):.2f} ms/seed); neighbourhood "
-            f"{warm_near:.2f} s, {len(near.seeds)} seeds, same states: {same}",
+            f"warm {warm:.2f} s ({1e3 * warm / len(cat.seeds):.2f} ms/seed, "
+            f"{seeding.thread_count(Enumeration())} threads); neighbourhood {warm_near:.2f} s, "
+            f"{len(near.seeds)} seeds, same states: {same}",
             flush=True,
         )
+        if n <= args.one_thread_max:
+            _, alone = timed(enumerate_states, model, Enumeration(threads=1), confirm=True)
+            print(
+                f"N={n}: exhaustive on one thread {alone:.2f} s (one thread / default "
+                f"{alone / warm:.2f}x)",
+                flush=True,
+            )
         if n > args.baseline_max:
             continue
         folds = bistable_folds(model.tube)

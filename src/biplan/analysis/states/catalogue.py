@@ -73,6 +73,10 @@ class Enumeration:
     lanes : int
         Seeds in flight inside a call: the descent and the polish run on ``lanes`` refilled
         ``vmap`` lanes, so a slow seed holds one lane, not the chunk.
+    threads : int
+        Chunks relaxed at once in this process, each on its own thread (a compiled kernel
+        keeps one core busy and releases the GIL); 0 (default): one per core this process
+        may run on. The states do not depend on it.
     duplicate_tolerance : float
         Two equilibria are the same state when max |Δq| is below this [mm, rad].
     stability_tolerance : float
@@ -84,6 +88,7 @@ class Enumeration:
     newton: Newton = field(default_factory=Newton)
     chunk: int = 128
     lanes: int = 8
+    threads: int = 0
     duplicate_tolerance: float = 1e-5
     stability_tolerance: float = STABILITY_TOL
 
@@ -94,6 +99,8 @@ class Enumeration:
         for name in ("max_iterations", "chunk", "lanes"):
             v = check_integer(f"Enumeration.{name}", getattr(self, name), low=1)
             object.__setattr__(self, name, v)
+        threads = check_integer("Enumeration.threads", self.threads, low=0)
+        object.__setattr__(self, "threads", threads)
 
 
 @dataclass(frozen=True)

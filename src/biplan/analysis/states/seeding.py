@@ -57,6 +57,7 @@ __all__ = [
     "relax_seeds",
     "seed_bits",
     "seed_targets",
+    "thread_count",
 ]
 
 #: Seeds above which a search runs only when confirmed (``confirm=True``, ``--yes``).
@@ -220,6 +221,24 @@ def evaluate_chunk(tube: Tube, settings: Enumeration, indices: np.ndarray) -> di
     return evaluate(model, bistable_folds(tube), indices, settings)
 
 
+def thread_count(settings: Enumeration) -> int:
+    """Threads of an in-process search: ``settings.threads``, or one per available core."""
+    from biplan.analysis.scaleout import available_cores
+
+    return settings.threads or available_cores()
+
+
+def _local_runner(settings: Enumeration) -> Any:
+    from biplan.analysis.scaleout import thread_runner
+
+    n = thread_count(settings)
+    return thread_runner(n) if n > 1 else None
+
+
+def _chunks(indices: np.ndarray, size: int) -> list[np.ndarray]:
+    return [indices[lo : lo + size] for lo in range(0, len(indices), size)]
+
+
 def exhaustive(
     model: Model,
     folds: tuple[FoldRef, ...],
@@ -229,16 +248,15 @@ def exhaustive(
     runner: Any = None,
 ) -> dict[str, np.ndarray]:
     """Every seed, chunk by chunk (:func:`evaluate`): chunks already in ``sink`` are loaded,
-    the others computed by ``runner`` (:mod:`biplan.analysis.scaleout`; default this process)
-    and saved to ``sink`` as they finish; the result is in seed order either way."""
+    the others computed by ``runner`` (:mod:`biplan.analysis.scaleout`; default this process,
+    on :func:`thread_count` threads) and saved to ``sink`` as they finish; the result is in
+    seed order either way."""
     from biplan.analysis.maps.sweeps import run_chunks
 
-    total = 2 ** len(folds)
-    chunks = [
-        np.arange(lo, min(lo + settings.chunk, total)) for lo in range(0, total, settings.chunk)
-    ]
+    chunks = _chunks(np.arange(2 ** len(folds)), settings.chunk)
     if runner is None:
         task: Any = functools.partial(evaluate, model, folds, settings=settings)
+        runner = _local_runner(settings)
     else:
         task = functools.partial(evaluate_chunk, model.tube, settings)
     results = run_chunks(task, chunks, runner=runner, sink=sink, progress=progress)
@@ -253,14 +271,20 @@ def neighbourhood(
 ) -> dict[str, np.ndarray]:
     """Seeds reached from the all-closed seed through Hamming-1 neighbours of the fold states
     of stable equilibria (module docstring); results in seed order. ``progress(done, total)``
-    counts seeds tried against seeds known so far."""
+    counts seeds tried against seeds known so far. Each round's seeds run in chunks on
+    :func:`thread_count` threads."""
+    from biplan.analysis.maps.sweeps import run_chunks
+
     n = len(folds)
     flips = np.eye(n, dtype=np.int64)
     tried: set[int] = set()
     frontier = np.array([0], dtype=np.int64)
     parts = []
+    task = functools.partial(evaluate, model, folds, settings=settings)
     while frontier.size:
-        part = evaluate(model, folds, frontier, settings)
+        chunks = _chunks(frontier, settings.chunk)
+        done = run_chunks(task, chunks, runner=_local_runner(settings))
+        part = _concatenate([done[c] for c in range(len(chunks))])
         parts.append(part)
         tried.update(int(i) for i in frontier)
         _, stable = outcome_masks(part, settings.stability_tolerance)
