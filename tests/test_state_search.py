@@ -9,6 +9,7 @@ import numpy as np
 import pytest
 
 import biplan
+import biplan.analysis.scaleout
 from biplan._compile.setup import jax, jnp
 from biplan.analysis.states import seeding
 from biplan.analysis.states.catalogue import Enumeration
@@ -130,7 +131,9 @@ def test_resumed_enumeration_equals_an_uninterrupted_one(model2fb, tmp_path):
 def test_a_large_exhaustive_search_is_refused_with_its_cost_before_any_work(monkeypatch):
     model = biplan.Model(biplan.designs.fully_bistable(n_modules=7))  # 13 folds
     monkeypatch.setattr(seeding, "evaluate", _forbidden)
-    with pytest.raises(biplan.ConfigError, match=r"8,192 seeds.*confirm.*about 100 s"):
+    monkeypatch.setattr(biplan.analysis.scaleout, "available_cores", lambda: 2)
+    # 8,192 seeds × 4.6e-5 s × 7² on 2 threads
+    with pytest.raises(biplan.ConfigError, match=r"8,192 seeds.*confirm.*about 9 s .* 2 threads"):
         enumerate_states(model)
     with pytest.raises(biplan.ConfigError, match="search"):
         enumerate_states(model, search="exhaustive")  # type: ignore[arg-type]

@@ -102,6 +102,12 @@ def states(
         str | None,
         typer.Option(help="Exhaustive search: Dask scheduler address of an existing cluster."),
     ] = None,
+    threads: Annotated[
+        int,
+        typer.Option(
+            help="In this process: chunks of seeds at once, one thread each (0: one per core)."
+        ),
+    ] = 0,
     quiet: Annotated[bool, typer.Option("--quiet", "-q", help="No progress or summary.")] = False,
 ) -> None:
     """Enumerate the stable states of a tube; write states.csv/.nc, transitions.graphml and
@@ -109,7 +115,7 @@ def states(
     its finished chunks of seeds to --out/seeds/ (``--resume`` continues a killed run) and runs
     them on a Dask cluster with ``--workers N`` (a local one) or ``--scheduler ADDRESS``."""
     import biplan
-    from biplan.analysis.states.catalogue import Outcome
+    from biplan.analysis.states.catalogue import Enumeration, Outcome
     from biplan.analysis.states.seeding import Search
     from biplan.analysis.states.transitions import transition_graph
     from biplan.io.states import STATE_DATA_FILES, seed_store, write_state_files
@@ -121,6 +127,11 @@ def states(
         valid = " or ".join(repr(m.value) for m in Search)
         raise ConfigError("--search", search, valid) from None
     check_integer("--workers", workers, low=1)
+    check_integer("--threads", threads, low=0)
+    if threads and (workers > 1 or scheduler is not None):
+        raise ConfigError(
+            "--threads", threads, "0 with --workers or --scheduler (Dask runs the chunks)"
+        )
     if method is not Search.EXHAUSTIVE:
         for flag, used in (("--resume", resume), ("--workers", workers > 1),
                            ("--scheduler", scheduler)):  # fmt: skip
@@ -137,7 +148,13 @@ def states(
         runner = dask_runner(scheduler, workers)
     try:
         catalogue = enumerate_with_progress(
-            model, quiet, search=method, sink=sink, confirm=yes, runner=runner
+            model,
+            quiet,
+            settings=Enumeration(threads=threads),
+            search=method,
+            sink=sink,
+            confirm=yes,
+            runner=runner,
         )
     except KeyboardInterrupt:
         if sink is not None:

@@ -62,10 +62,10 @@ __all__ = [
 
 #: Seeds above which a search runs only when confirmed (``confirm=True``, ``--yes``).
 CONFIRM_SEEDS = 2**12
-#: Wall time per seed [s] is about this × N² for N modules (relaxation and observation, fully
-#: bistable tubes, warm kernels, one process on the 2-core development machine: 3.9 ms at
-#: N = 4, 8.9 ms at N = 6; docs/performance.md).
-SECONDS_PER_SEED = 2.5e-4
+#: Wall time per seed and thread [s] is about this × N² for N modules (relaxation and
+#: observation, fully bistable tubes, warm kernels, one thread on the 2-core development
+#: machine: 1.6 ms at N = 6, 3.0 ms at N = 8; docs/performance.md).
+SECONDS_PER_SEED = 4.6e-5
 
 Progress = Callable[[int, int], None]
 
@@ -101,10 +101,10 @@ def outcome_masks(res: dict[str, np.ndarray], tolerance: float) -> tuple[np.ndar
     return converged, converged & (res["min_eigenvalue"] > tolerance)
 
 
-def cost_estimate(n_seeds: int, n_modules: int) -> str:
+def cost_estimate(n_seeds: int, n_modules: int, threads: int = 1) -> str:
     """A one-line estimate of the wall time of relaxing ``n_seeds`` seeds of an
-    ``n_modules``-module tube in one process (:data:`SECONDS_PER_SEED`)."""
-    seconds = n_seeds * SECONDS_PER_SEED * n_modules**2
+    ``n_modules``-module tube in one process on ``threads`` threads (:data:`SECONDS_PER_SEED`)."""
+    seconds = n_seeds * SECONDS_PER_SEED * n_modules**2 / threads
     if seconds < 120:
         return f"about {seconds:.0f} s"
     if seconds < 7200:
@@ -304,9 +304,13 @@ def check_size(n_folds: int, n_modules: int, search: Search, confirm: bool, max_
         raise ConfigError("model", f"{n_folds} bistable folds", f"at most {max_folds}")
     seeds = 2**n_folds
     if search is Search.EXHAUSTIVE and seeds > CONFIRM_SEEDS and not confirm:
+        from biplan.analysis.scaleout import available_cores
+
+        threads = available_cores()
         raise ConfigError(
             "search",
             f"exhaustive over {n_folds} bistable folds ({seeds:,} seeds)",
             f"at most {CONFIRM_SEEDS:,} seeds unless confirmed (confirm=True, --yes): "
-            f"{cost_estimate(seeds, n_modules)} in one process; or the neighbourhood search",
+            f"{cost_estimate(seeds, n_modules, threads)} in one process on {threads} threads; "
+            "or the neighbourhood search",
         )
