@@ -15,11 +15,15 @@ For each N of ``--sizes`` (default 4 5 6), in one process:
 Usage::
 
     .venv/bin/python benchmarks/bench_states.py [--sizes 4 5 6] [--baseline-max 5]
-        [--one-thread-max 6] [--dask 6]
+        [--one-thread-max 6] [--dask 6] [--sample 10 32]
 
 ``--dask N``: the exhaustive search of N modules on a Dask ``LocalCluster`` of 1 and of 2
 workers (pinned, one thread each), timed from the moment the warmed-up cluster is ready to the
 last chunk; the speed-up of 2 workers over 1 (target ≥ 1.6×).
+
+``--sample N K``: K chunks of N's exhaustive search, spread evenly over the seed space, on a
+2-worker ``LocalCluster`` (timed after warm-up), extrapolated to every seed (the N = 10 estimate:
+524,288 seeds, target ≤ 15 min).
 
 Targets (issue "state spaces of long fully bistable tubes"): N = 4 ≤ 0.5 s warm, N = 8 ≤ 60 s.
 """
@@ -76,9 +80,12 @@ def main() -> None:
     parser.add_argument("--baseline-max", type=int, default=5)
     parser.add_argument("--one-thread-max", type=int, default=6)
     parser.add_argument("--dask", type=int, default=0, help="modules of the Dask run (0: none)")
+    parser.add_argument("--sample", type=int, nargs=2, default=None, metavar=("N", "CHUNKS"))
     args = parser.parse_args()
     if args.dask:
         dask_speedup(args.dask)
+    if args.sample:
+        dask_sample(*args.sample)
     for n in args.sizes:
         model = biplan.Model(biplan.designs.fully_bistable(n_modules=n))
         cat, cold = timed(enumerate_states, model, confirm=True)
@@ -142,6 +149,36 @@ def dask_speedup(n: int) -> None:
             flush=True,
         )
     print(f"N={n}: speed-up 2 vs 1 workers {times[1] / times[2]:.2f}x  [target >= 1.6x]")
+
+
+def dask_sample(n: int, n_sample: int) -> None:
+    from biplan.analysis.maps.sweeps import run_chunks
+    from biplan.analysis.scaleout import dask_runner
+
+    tube = biplan.designs.fully_bistable(n_modules=n)
+    settings = Enumeration()
+    n_seeds = 2 ** len(bistable_folds(tube))
+    n_chunks = -(-n_seeds // settings.chunk)
+    picks = np.unique(np.linspace(0, n_chunks - 1, n_sample).round().astype(int))
+    chunks = [np.arange(c * settings.chunk, min((c + 1) * settings.chunk, n_seeds)) for c in picks]
+    ready: list[float] = []
+    t0 = time.perf_counter()
+    run = dask_runner(None, 2, warm_up=True, on_ready=lambda: ready.append(time.perf_counter()))
+    task = functools.partial(seeding.evaluate_chunk, tube, settings)
+    done = run_chunks(task, chunks, runner=run)
+    wall = time.perf_counter() - ready[0]
+    sampled = sum(len(c) for c in chunks)
+    stable = sum(
+        int(seeding.outcome_masks(r, settings.stability_tolerance)[1].sum()) for r in done.values()
+    )
+    per_seed = wall / sampled
+    print(
+        f"N={n}: {sampled} of {n_seeds:,} seeds ({len(chunks)} spread chunks) on a 2-worker "
+        f"LocalCluster in {wall:.1f} s after {ready[0] - t0:.0f} s of start-up and warm-up "
+        f"({1e3 * per_seed:.2f} ms/seed, {stable} stable); every seed: about "
+        f"{per_seed * n_seeds / 60:.1f} min  [target <= 15 min]",
+        flush=True,
+    )
 
 
 if __name__ == "__main__":

@@ -175,8 +175,8 @@ def enumerate_states(
     z = res["z"]
     converged, stable = seeding.outcome_masks(res, settings.stability_tolerance)
     nq = model.layout.n_coordinates
-    state_of = _merge(z[:, :nq], stable, settings.duplicate_tolerance)
-    unstable_of = _merge(z[:, :nq], converged & ~stable, settings.duplicate_tolerance)
+    state_of = seeding.merge_rows(z[:, :nq], stable, settings.duplicate_tolerance)
+    unstable_of = seeding.merge_rows(z[:, :nq], converged & ~stable, settings.duplicate_tolerance)
     reps = np.flatnonzero(state_of == np.arange(len(z)))
     names = _names([tuple(int(b) for b in res["reached"][i]) for i in reps])
     name_of = dict(zip(reps.tolist(), names, strict=True))
@@ -234,33 +234,6 @@ def enumerate_states(
         settings=settings,
         elapsed=time.perf_counter() - start,
     )
-
-
-def _merge(q: np.ndarray, keep: np.ndarray, tolerance: float) -> np.ndarray:
-    """For each row i of ``q`` with ``keep[i]``: the first kept row r ≤ i, in row order, that
-    is a representative and has max |q_r − q_i| < tolerance (i itself when none); −1 for rows
-    not kept. Candidates come from a k-d tree in the max norm, so the cost is O(k log k)."""
-    from scipy.spatial import cKDTree
-
-    out = np.full(len(q), -1, dtype=np.int64)
-    rows = np.flatnonzero(keep)
-    if rows.size == 0:
-        return out
-    tree = cKDTree(q[rows])
-    near = tree.query_ball_point(q[rows], r=tolerance, p=np.inf)
-    is_rep = np.zeros(rows.size, dtype=bool)
-    for a, candidates in enumerate(near):
-        hits = [
-            b
-            for b in candidates
-            if b < a and is_rep[b] and np.max(np.abs(q[rows[b]] - q[rows[a]])) < tolerance
-        ]
-        if hits:
-            out[rows[a]] = out[rows[min(hits)]]
-        else:
-            is_rep[a] = True
-            out[rows[a]] = rows[a]
-    return out
 
 
 def _names(bits: list[tuple[int, ...]]) -> list[str]:

@@ -52,6 +52,7 @@ __all__ = [
     "evaluate_chunk",
     "exhaustive",
     "fold_vector_index",
+    "merge_rows",
     "neighbourhood",
     "outcome_masks",
     "relax_seeds",
@@ -60,6 +61,9 @@ __all__ = [
     "thread_count",
 ]
 
+#: Seeds whose equilibria agree to this [mm, rad] (max norm) share one observation: the
+#: polish converges to 10⁻⁹, so two seeds that reached one equilibrium agree far closer.
+SHARED_OBSERVATION = 1e-8
 #: Seeds above which a search runs only when confirmed (``confirm=True``, ``--yes``).
 CONFIRM_SEEDS = 2**12
 #: Wall time per seed and thread [s] is about this × N² for N modules (relaxation and
@@ -171,6 +175,33 @@ def relax_seeds(
     return np.concatenate(zs), np.concatenate(status), np.concatenate(residual)
 
 
+def merge_rows(q: np.ndarray, keep: np.ndarray, tolerance: float) -> np.ndarray:
+    """For each row i of ``q`` with ``keep[i]``: the first kept row r ≤ i, in row order, that
+    is a representative and has max |q_r − q_i| < tolerance (i itself when none); −1 for rows
+    not kept. Candidates come from a k-d tree in the max norm, so the cost is O(k log k)."""
+    from scipy.spatial import cKDTree
+
+    out = np.full(len(q), -1, dtype=np.int64)
+    rows = np.flatnonzero(keep)
+    if rows.size == 0:
+        return out
+    tree = cKDTree(q[rows])
+    near = tree.query_ball_point(q[rows], r=tolerance, p=np.inf)
+    is_rep = np.zeros(rows.size, dtype=bool)
+    for a, candidates in enumerate(near):
+        hits = [
+            b
+            for b in candidates
+            if b < a and is_rep[b] and np.max(np.abs(q[rows[b]] - q[rows[a]])) < tolerance
+        ]
+        if hits:
+            out[rows[a]] = out[rows[min(hits)]]
+        else:
+            is_rep[a] = True
+            out[rows[a]] = rows[a]
+    return out
+
+
 def evaluate(
     model: Model,
     folds: tuple[FoldRef, ...],
@@ -178,15 +209,23 @@ def evaluate(
     settings: Enumeration,
     progress: Progress | None = None,
 ) -> dict[str, np.ndarray]:
-    """Relax and observe seeds ``indices``: per seed (leading axis) ``seed``, ``z``,
+    """Relax and observe seeds ``indices`` (seeds whose equilibria agree to
+    :data:`SHARED_OBSERVATION` are observed once): per seed (leading axis) ``seed``, ``z``,
     ``status``, ``residual`` [N, mm], ``reached`` (fold bits of the equilibrium),
     ``min_eigenvalue`` [N·mm per unit q²], ``energy`` [N·mm], ``u_z``, ``u_r`` [mm],
     ``theta`` [rad], ``phase_fraction`` (N + Nc, 3)."""
     indices = np.asarray(indices, dtype=np.int64)
     target, mask = seed_targets(model, folds, seed_bits(indices, len(folds)))
     z, status, residual = relax_seeds(model, target, mask, settings, progress)
-    zeros = np.zeros(len(z))
-    obs = observe_batch(model.layout, model.params, z, Load(zeros, zeros, zeros))
+    finite = np.all(np.isfinite(z), axis=1)
+    rep = merge_rows(z[:, : model.layout.n_coordinates], finite, SHARED_OBSERVATION)
+    rep = np.where(finite, rep, np.arange(len(z)))
+    observed = np.flatnonzero(rep == np.arange(len(z)))
+    zeros = np.zeros(len(observed))
+    obs = observe_batch(model.layout, model.params, z[observed], Load(zeros, zeros, zeros))
+    position = np.zeros(len(z), dtype=np.int64)
+    position[observed] = np.arange(len(observed))
+    obs = type(obs)(*(np.asarray(v)[position[rep]] for v in obs))
     frac = obs.phase_fraction[:, [fold_vector_index(model, f) for f in folds], :]
     return {
         "seed": indices,
