@@ -159,3 +159,47 @@ def test_a_reduced_solution_is_a_full_equilibrium(model4) -> None:
     assert np.abs(np.asarray(reduced_residual_at_rest(lay, p, jnp.asarray(v)))).max() < 1e-8
     np.testing.assert_allclose(np.asarray(full_state(lay, p, jnp.asarray(v))), z, atol=1e-12)
     assert v.shape[0] == nx + z.shape[0] - nq - ng
+
+
+def test_observation_at_rest_equals_the_general_one_at_zero_load(model4) -> None:
+    """The at-rest kernel (no Hessian of the load point) observes what the general kernel
+    observes under a zero end load, on relaxed states and on states off equilibrium."""
+    from biplan.analysis.states.catalogue import Enumeration
+    from biplan.analysis.states.labels import bistable_folds
+    from biplan.analysis.states.seeding import relax_seeds, seed_bits, seed_targets
+    from biplan.model.params import Load
+    from biplan.solvers.observe import observe, observe_at_rest
+
+    lay, p = model4.layout, model4.params
+    folds = bistable_folds(model4.tube)
+    target, mask = seed_targets(model4, folds, seed_bits(np.array([0, 27, 100]), len(folds)))
+    zs, status, _ = relax_seeds(model4, target, mask, Enumeration())
+    assert np.all(status == 0)
+    rng = np.random.default_rng(3)
+    off = zs + rng.uniform(-1e-3, 1e-3, zs.shape)
+    z = jnp.asarray(np.concatenate([zs, off]))
+    zero = jnp.zeros(len(z))
+    general = jax.jit(jax.vmap(functools.partial(observe, lay, p)))(z, Load(zero, zero, zero))
+    rest = jax.jit(jax.vmap(functools.partial(observe_at_rest, lay, p)))(z)
+    for name, a, b in zip(general._fields, general, rest, strict=True):
+        np.testing.assert_allclose(
+            np.asarray(b), np.asarray(a), rtol=1e-12, atol=1e-12, err_msg=name
+        )
+
+
+def test_the_descent_computes_eigenvalues_only_for_an_indefinite_hessian() -> None:
+    """λ_min as the descent uses it: +∞ when H − floor·I is positive definite (no shift, the
+    curvature test passes), the eigenvalue otherwise — also for a lane of a batch whose other
+    lane is definite."""
+    from biplan.solvers._relaxkernel import SHIFT_FLOOR, _smallest_eigenvalue
+
+    definite = jnp.diag(jnp.array([2.0, 1.0, 3.0]))
+    indefinite = jnp.array([[1.0, 2.0, 0.0], [2.0, 1.0, 0.0], [0.0, 0.0, 1.0]])  # λ = −1, 1, 3
+    barely = jnp.diag(jnp.array([SHIFT_FLOOR / 2, 1.0, 1.0]))
+    assert float(_smallest_eigenvalue(definite, None)) == np.inf
+    assert float(_smallest_eigenvalue(indefinite, None)) == pytest.approx(-1.0)
+    assert float(_smallest_eigenvalue(barely, None)) == pytest.approx(SHIFT_FLOOR / 2)
+    lanes = jax.vmap(lambda h: _smallest_eigenvalue(h, "lanes"), axis_name="lanes")
+    out = np.asarray(lanes(jnp.stack([definite, indefinite, barely])))
+    assert out[0] == np.inf
+    np.testing.assert_allclose(out[1:], [-1.0, SHIFT_FLOOR / 2])

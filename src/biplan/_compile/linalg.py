@@ -24,7 +24,16 @@ from typing import Any
 
 from biplan._compile.setup import jax, jnp
 
-__all__ = ["eigvalsh", "lu_factor", "lu_solve", "pinv", "sequential_vmap", "solve", "svd"]
+__all__ = [
+    "cholesky",
+    "eigvalsh",
+    "lu_factor",
+    "lu_solve",
+    "pinv",
+    "sequential_vmap",
+    "solve",
+    "svd",
+]
 
 
 def sequential_vmap(fn: Callable[..., Any]) -> Callable[..., Any]:
@@ -73,6 +82,13 @@ def svd(a: Any) -> tuple[Any, Any, Any]:
     """Full SVD (u, s, vᵀ) of a (m, n)."""
     u, s, vt = jnp.linalg.svd(a, full_matrices=True)
     return u, s, vt
+
+
+@sequential_vmap
+def cholesky(a: Any) -> Any:
+    """Lower Cholesky factor of the symmetric matrix a (n, n); NaN entries where a is not
+    positive definite (LAPACK's failure, as :func:`jax.numpy.linalg.cholesky` reports it)."""
+    return jnp.linalg.cholesky(a)
 
 
 @sequential_vmap

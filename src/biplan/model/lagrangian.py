@@ -48,6 +48,7 @@ __all__ = [
     "sfb",
     "sizes",
     "state_data",
+    "state_data_at_rest",
     "state_from_jacobian",
     "unloaded_terms",
 ]
@@ -220,9 +221,14 @@ def _state(
     load: Load,
     second_order: bool,
     blocks: Any,
+    loaded: bool = True,
 ) -> StateData:
-    """StateData at z; ``blocks(local, chain_part, coef)`` gives (K, G, C)."""
-    local, chain_part, coef, q = _terms(layout, p, z, load, second_order)
+    """StateData at z; ``blocks(local, chain_part, coef)`` gives (K, G, C). ``loaded=False``:
+    at rest, the load point's value and gradient without its Hessian."""
+    local, chain_part, coef, q = _terms(layout, p, z, load, second_order, loaded)
+    if not loaded:
+        first = elements.chain_terms(layout, p.geometry, q, False)
+        chain_part = chain_part._replace(value=first.value, gradient=first.gradient)
     k, g_mat, c_mat = blocks(local, chain_part, coef)
     return StateData(
         energy=local.helical_energy.sum() + local.circular_energy.sum(),
@@ -236,14 +242,26 @@ def _state(
     )
 
 
-def state_data(layout: TubeLayout, p: ModelParams, z: Array, load: Load) -> StateData:
-    """Energy split, endpoint, Lagrangian Hessian and constraint Jacobians at z."""
-
+def _second_order_blocks(
+    p: ModelParams,
+) -> Any:
     def blocks(local: Any, chain_part: Any, coef: Array) -> tuple[Array, Array, Array]:
         k = _hessian_of_terms(p, local, chain_part, coef)
         return k, local.guide_jacobian, local.gap_jacobian
 
-    return _state(layout, p, z, load, True, blocks)
+    return blocks
+
+
+def state_data(layout: TubeLayout, p: ModelParams, z: Array, load: Load) -> StateData:
+    """Energy split, endpoint, Lagrangian Hessian and constraint Jacobians at z."""
+    return _state(layout, p, z, load, True, _second_order_blocks(p))
+
+
+def state_data_at_rest(layout: TubeLayout, p: ModelParams, z: Array) -> StateData:
+    """:func:`state_data` at :data:`~biplan.model.params.AT_REST`: the Hessian of the load
+    point's displacement z_p, whose coefficient μd − F vanishes there and which costs more
+    than the rest of the state's data together, is not evaluated (z_p and ∇z_p are)."""
+    return _state(layout, p, z, AT_REST.for_kernel(), True, _second_order_blocks(p), False)
 
 
 def state_from_jacobian(

@@ -18,8 +18,10 @@ guide penalty to make the descent stiff):
    penalties (MODEL §15 leaves the relaxation open; a penalty keeps every iteration smooth
    where the Fischer–Burmeister Newton stalls on contact switches far from the solution). The
    gradient and Hessian are assembled per element
-   (:func:`biplan.model.elements.reduced.penalized_terms`). The step lengths 1, ½, ¼, ⅛ are
-   tried first; the twelve shorter ones only when some lane of the batch rejected all four.
+   (:func:`biplan.model.elements.reduced.penalized_terms`). A Cholesky factorisation of the
+   Hessian (less the shift floor) decides whether it needs a shift; its eigenvalues are computed
+   only when some lane's factorisation fails. The step lengths 1, ½, ¼, ⅛ are tried first; the
+   twelve shorter ones only when some lane of the batch rejected all four.
 3. **KKT polish.** The Newton solver of the package (:func:`biplan.solvers.core.machine`) on
    the exact KKT system at rest in reduced coordinates
    (:func:`biplan.model.lagrangian.reduced_residual_at_rest`: stationarity and smoothed
@@ -150,7 +152,7 @@ def _descent(
         x, it, _ = s
         terms = penalized_terms(layout, p, x, stiffness)
         e, gr, h = terms.value, terms.gradient, terms.hessian
-        lo = linalg.eigvalsh(h)[0]
+        lo = _smallest_eigenvalue(h, axis_name)
         shift = jnp.maximum(0.0, SHIFT_FLOOR - lo)
         step = linalg.solve(h + shift * jnp.eye(x.shape[0]), -gr)
         scale = jnp.minimum(1.0, DESCENT_MAX_STEP / (jnp.max(jnp.abs(step)) + 1e-300))
@@ -176,6 +178,20 @@ def _descent(
         return new, it + 1, done
 
     return init, body, running
+
+
+def _smallest_eigenvalue(h: Array, axis_name: str | None) -> Array:
+    """λ_min of the Hessian h where it matters: +∞ when h − SHIFT_FLOOR·I is positive definite
+    (a Cholesky factorisation succeeds, so no shift is needed and the curvature test passes),
+    else the eigenvalue. With ``axis_name`` the eigenvalues are computed only when some lane's
+    factorisation failed (they cost eight times a factorisation)."""
+    floor = SHIFT_FLOOR * jnp.eye(h.shape[0])
+    definite = jnp.all(jnp.isfinite(linalg.cholesky(h - floor)))
+    need = ~definite
+    if axis_name is not None:
+        need = jax.lax.psum(need.astype(jnp.int32), axis_name) > 0
+    lo = jax.lax.cond(need, lambda: linalg.eigvalsh(h)[0], lambda: jnp.asarray(jnp.inf))
+    return jnp.where(definite, jnp.inf, lo)
 
 
 def _polish_start(layout: TubeLayout, p: ModelParams, x: Array, stiffness: Array) -> Array:

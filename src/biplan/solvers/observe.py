@@ -12,6 +12,10 @@ z = [q, λ, λ_∂, μ] and their loads, everything a path or trajectory records
   (guides, contacts with λ_∂ > 1e-6 and w_∂ < 1e-4, the end constraint under displacement
   control).
 
+States at rest (no end load: the state search) have a kernel of their own
+(:func:`observe_at_rest`), which skips the Hessian of the load point's displacement: its
+coefficient vanishes there, and at N = 10 it costs more than everything else observed.
+
 The reduced eigenvalue is computed without a data-dependent basis size, so it can be jitted:
 with A the active-constraint Jacobian (inactive rows zeroed) and A = U Σ Vᵀ, the rows of Vᵀ
 past the numerical rank span the null space; the rotated Hessian V K Vᵀ is restricted to them
@@ -30,8 +34,14 @@ from biplan._compile import linalg
 from biplan._compile.kernel import kernel
 from biplan._compile.setup import jnp
 from biplan.geometry.layout import TubeLayout
-from biplan.model.lagrangian import StateData, sizes, state_data, state_from_jacobian
-from biplan.model.params import Load, ModelParams
+from biplan.model.lagrangian import (
+    StateData,
+    sizes,
+    state_data,
+    state_data_at_rest,
+    state_from_jacobian,
+)
+from biplan.model.params import AT_REST, Load, ModelParams
 from biplan.model.potential import guide_values, phase_fractions
 
 __all__ = [
@@ -44,6 +54,7 @@ __all__ = [
     "kkt_min_eigenvalue",
     "min_reduced_eigenvalue",
     "observe",
+    "observe_at_rest",
     "observe_batch",
 ]
 
@@ -195,25 +206,50 @@ def _observe_layout(layout: TubeLayout, p: ModelParams, z: Array, load: Load) ->
     return observe(layout, p, z, load, layout.options.weak_contacts_active)
 
 
-def observe_batch(layout: TubeLayout, params: ModelParams, z: Array, loads: Load) -> Observation:
-    """Observe states ``z`` (k, n_z) under ``loads`` (a Load of (k,) arrays), in chunks.
+@kernel("observe_at_rest", in_axes=(None, 0))
+def _observe_at_rest_layout(layout: TubeLayout, p: ModelParams, z: Array) -> Observation:
+    """:func:`observe_at_rest` with the layout's own reading of weak contacts."""
+    return observe_at_rest(layout, p, z, layout.options.weak_contacts_active)
+
+
+def observe_at_rest(
+    layout: TubeLayout, p: ModelParams, z: Array, weak_contacts: bool = False
+) -> Observation:
+    """:func:`observe` of z under :data:`~biplan.model.params.AT_REST` (no end load), from
+    :func:`~biplan.model.lagrangian.state_data_at_rest`: the same observables, without
+    evaluating the load point's Hessian (its coefficient vanishes at rest)."""
+    data = state_data_at_rest(layout, p, z)
+    return observation(layout, p, z, AT_REST.for_kernel(), data, weak_contacts)
+
+
+def observe_batch(
+    layout: TubeLayout, params: ModelParams, z: Array, loads: Load | None
+) -> Observation:
+    """Observe states ``z`` (k, n_z) under ``loads`` (a Load of (k,) arrays; ``None``: at rest,
+    through :func:`observe_at_rest`'s kernel), in chunks.
 
     Returns NumPy arrays with leading axis k. Chunks of :data:`CHUNK` states keep one
     compiled shape whatever k is.
     """
     z = np.asarray(z, dtype=float)
     k = z.shape[0]
-    cols = [np.broadcast_to(np.asarray(v, dtype=float), (k,)) for v in loads]
-    fn = _observe_layout.compiled(layout)
     parts: list[Observation] = []
+    if loads is None:
+        at_rest = _observe_at_rest_layout.compiled(layout)
+    else:
+        cols = [np.broadcast_to(np.asarray(v, dtype=float), (k,)) for v in loads]
+        general = _observe_layout.compiled(layout)
     for lo in range(0, k, CHUNK):
         hi = min(lo + CHUNK, k)
         pad = CHUNK - (hi - lo)
-        zc = np.concatenate([z[lo:hi], np.repeat(z[hi - 1 : hi], pad, axis=0)])
-        lc = Load(
-            *(jnp.asarray(np.concatenate([c[lo:hi], np.repeat(c[hi - 1], pad)])) for c in cols)
-        )
-        out = fn(params, jnp.asarray(zc), lc)
+        zc = jnp.asarray(np.concatenate([z[lo:hi], np.repeat(z[hi - 1 : hi], pad, axis=0)]))
+        if loads is None:
+            out = at_rest(params, zc)
+        else:
+            lc = Load(
+                *(jnp.asarray(np.concatenate([c[lo:hi], np.repeat(c[hi - 1], pad)])) for c in cols)
+            )
+            out = general(params, zc, lc)
         parts.append(Observation(*(np.asarray(v)[: hi - lo] for v in out)))
     if not parts:
         raise ValueError("no states to observe")

@@ -33,7 +33,7 @@ import numpy as np
 from biplan._compile.setup import jnp
 from biplan._errors import ConfigError
 from biplan.geometry import FoldRef
-from biplan.model.assembly import Load, Model
+from biplan.model.assembly import Model
 from biplan.model.tube import Tube
 from biplan.solvers._relaxkernel import relax_pool
 from biplan.solvers.core_settings import Status
@@ -221,8 +221,7 @@ def evaluate(
     rep = merge_rows(z[:, : model.layout.n_coordinates], finite, SHARED_OBSERVATION)
     rep = np.where(finite, rep, np.arange(len(z)))
     observed = np.flatnonzero(rep == np.arange(len(z)))
-    zeros = np.zeros(len(observed))
-    obs = observe_batch(model.layout, model.params, z[observed], Load(zeros, zeros, zeros))
+    obs = observe_batch(model.layout, model.params, z[observed], None)
     position = np.zeros(len(z), dtype=np.int64)
     position[observed] = np.arange(len(observed))
     obs = type(obs)(*(np.asarray(v)[position[rep]] for v in obs))
