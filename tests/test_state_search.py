@@ -137,6 +137,9 @@ def test_a_large_exhaustive_search_is_refused_with_its_cost_before_any_work(monk
         enumerate_states(model)
     with pytest.raises(biplan.ConfigError, match="search"):
         enumerate_states(model, search="exhaustive")  # type: ignore[arg-type]
+    eleven = biplan.Model(biplan.designs.fully_bistable(n_modules=11))  # 21 folds
+    with pytest.raises(biplan.ConfigError, match=r"21 bistable folds.*at most 20 for the exhaus"):
+        enumerate_states(eleven, confirm=True)
 
 
 def _forbidden(*args, **kwargs):  # type: ignore[no-untyped-def]
@@ -231,3 +234,25 @@ def test_at_rest_assembly_equals_the_general_one_at_zero_load(which, model2fb, m
     r_rest, r, j_rest, j = both(jnp.asarray(z))
     np.testing.assert_allclose(r_rest, r, rtol=0, atol=1e-12)
     np.testing.assert_allclose(j_rest, j, rtol=0, atol=1e-12)
+
+
+def test_merging_equals_the_pairwise_rule() -> None:
+    """merge_rows (candidates from a sorted projection) against the rule written pairwise:
+    each kept row joins the first earlier representative within the tolerance (max norm)."""
+    rng = np.random.default_rng(1)
+    centres = rng.uniform(-1.0, 1.0, (60, 9))
+    q = centres[rng.integers(0, 60, 600)] + rng.uniform(-1e-9, 1e-9, (600, 9))
+    q[::7] += 6e-6  # within the tolerance of their centre's other rows
+    q[::11, 3] += 2e-5  # beyond it in one coordinate only
+    keep = rng.random(600) > 0.1
+    tolerance = 1e-5
+    expected = np.full(600, -1)
+    reps: list[int] = []
+    for i in np.flatnonzero(keep):
+        hits = [r for r in reps if np.max(np.abs(q[r] - q[i])) < tolerance]
+        expected[i] = min(hits) if hits else i
+        if not hits:
+            reps.append(i)
+    got = seeding.merge_rows(q, keep, tolerance)
+    np.testing.assert_array_equal(got, expected)
+    assert 60 < len(reps) < 600

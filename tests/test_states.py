@@ -291,3 +291,22 @@ def test_laws_inferred_from_fig4_meet_the_papers_elongation(model4):
     assert biplan.designs.fully_bistable(laws="inferred-from-fig4") == model.tube
     with pytest.raises(biplan.ConfigError, match="laws"):
         biplan.designs.fully_bistable(laws="fitted")
+
+
+def test_single_fold_pairs_equal_the_pairwise_hamming_test() -> None:
+    """The transition graph's edges come from a bit-flip lookup; the O(k²) pairwise Hamming
+    distance (the reference) gives the same pairs, in the same order, also where two states
+    share their bits."""
+    from biplan.analysis.states.transitions import _single_fold_pairs
+
+    rng = np.random.default_rng(7)
+    bits = [tuple(int(b) for b in row) for row in rng.integers(0, 2, (300, 7))]
+    bits += bits[:5]  # repeated bits (states `1B`, `1B.2`)
+    reference = [
+        (i, j, next(k for k in range(7) if bits[i][k] != bits[j][k]))
+        for i in range(len(bits))
+        for j in range(i + 1, len(bits))
+        if hamming(bits[i], bits[j]) == 1
+    ]
+    assert len(reference) > 300
+    assert _single_fold_pairs(bits) == reference

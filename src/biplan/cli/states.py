@@ -174,5 +174,15 @@ def states(
         f"({len(catalogue.mismatched_seeds)} reached other bits, "
         f"{len(catalogue.unstable_eigenvalues)} unstable equilibria, {failed} failed) in "
         f"{catalogue.elapsed:.1f} s; {graph.number_of_edges()} single-fold transitions\n"
-        f"states: {' '.join(catalogue.names)}\nwrote {out}/"
+        f"states: {_listed(catalogue.names)}\nwrote {out}/"
     )
+
+
+#: Most state names the summary lists (the rest are in states.csv).
+LISTED_NAMES = 100
+
+
+def _listed(names: tuple[str, ...]) -> str:
+    if len(names) <= LISTED_NAMES:
+        return " ".join(names)
+    return f"{' '.join(names[:LISTED_NAMES])} … ({len(names) - LISTED_NAMES:,} more in states.csv)"

@@ -10,6 +10,7 @@
 from __future__ import annotations
 
 import enum
+import functools
 import json
 from dataclasses import dataclass, field
 from typing import Any
@@ -202,7 +203,7 @@ class StateCatalogue:
 
         raise ConfigError("state", name, f"one of {', '.join(self.names)}")
 
-    @property
+    @functools.cached_property
     def max_abs_theta(self) -> float:
         """max |θ| [rad] over the stable states: the normaliser of Θ."""
         theta = np.abs([s.theta for s in self.states])

@@ -64,6 +64,8 @@ __all__ = [
 #: Seeds whose equilibria agree to this [mm, rad] (max norm) share one observation: the
 #: polish converges to 10⁻⁹, so two seeds that reached one equilibrium agree far closer.
 SHARED_OBSERVATION = 1e-8
+#: Most bistable folds of a neighbourhood search (seed indices are 64-bit integers).
+NEIGHBOURHOOD_MAX_FOLDS = 62
 #: Seeds above which a search runs only when confirmed (``confirm=True``, ``--yes``).
 CONFIRM_SEEDS = 2**12
 #: Wall time per seed and thread [s] is about this × N² for N modules (relaxation and
@@ -178,27 +180,35 @@ def relax_seeds(
 def merge_rows(q: np.ndarray, keep: np.ndarray, tolerance: float) -> np.ndarray:
     """For each row i of ``q`` with ``keep[i]``: the first kept row r ≤ i, in row order, that
     is a representative and has max |q_r − q_i| < tolerance (i itself when none); −1 for rows
-    not kept. Candidates come from a k-d tree in the max norm, so the cost is O(k log k)."""
-    from scipy.spatial import cKDTree
+    not kept.
 
+    Candidates come from a sorted projection p = q·w (fixed positive weights, Σw = 1): rows
+    within the tolerance in the max norm are within it in p, so each row is compared only with
+    the rows of its window in p (O(k log k) for well-separated states; a k-d tree in the max
+    norm takes minutes for 5·10⁵ rows of 39 coordinates).
+    """
     out = np.full(len(q), -1, dtype=np.int64)
     rows = np.flatnonzero(keep)
     if rows.size == 0:
         return out
-    tree = cKDTree(q[rows])
-    near = tree.query_ball_point(q[rows], r=tolerance, p=np.inf)
-    is_rep = np.zeros(rows.size, dtype=bool)
-    for a, candidates in enumerate(near):
-        hits = [
-            b
-            for b in candidates
-            if b < a and is_rep[b] and np.max(np.abs(q[rows[b]] - q[rows[a]])) < tolerance
-        ]
-        if hits:
-            out[rows[a]] = out[rows[min(hits)]]
-        else:
-            is_rep[a] = True
-            out[rows[a]] = rows[a]
+    x = np.asarray(q[rows], dtype=float)
+    w = np.random.default_rng(0).uniform(0.5, 1.5, x.shape[1])
+    p = x @ (w / w.sum())
+    order = np.argsort(p, kind="stable")
+    sorted_p = p[order]
+    lo = np.searchsorted(sorted_p, p - tolerance, side="left")
+    hi = np.searchsorted(sorted_p, p + tolerance, side="right")
+    rep_of = np.full(rows.size, -1, dtype=np.int64)
+    for a in range(rows.size):
+        window = order[lo[a] : hi[a]]
+        window = window[(window < a) & (rep_of[window] == window)]
+        if window.size:
+            close = np.max(np.abs(x[window] - x[a]), axis=1) < tolerance
+            if close.any():
+                rep_of[a] = window[close].min()
+                continue
+        rep_of[a] = a
+    out[rows] = rows[rep_of]
     return out
 
 
@@ -338,8 +348,11 @@ def neighbourhood(
 
 def check_size(n_folds: int, n_modules: int, search: Search, confirm: bool, max_folds: int) -> None:
     """Refuse, before any work, a search too large to run unasked (with its cost estimate)."""
-    if n_folds > max_folds:
-        raise ConfigError("model", f"{n_folds} bistable folds", f"at most {max_folds}")
+    limit = max_folds if search is Search.EXHAUSTIVE else NEIGHBOURHOOD_MAX_FOLDS
+    if n_folds > limit:
+        raise ConfigError(
+            "model", f"{n_folds} bistable folds", f"at most {limit} for the {search.value} search"
+        )
     seeds = 2**n_folds
     if search is Search.EXHAUSTIVE and seeds > CONFIRM_SEEDS and not confirm:
         from biplan.analysis.scaleout import available_cores

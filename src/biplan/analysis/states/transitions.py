@@ -25,7 +25,6 @@ from biplan._errors import ConfigError
 from biplan.analysis.states.barriers import NudgedElasticBand, edge_barriers
 from biplan.analysis.states.catalogue import StateCatalogue
 from biplan.analysis.states.departure import departure_force
-from biplan.analysis.states.labels import hamming
 from biplan.model.assembly import Model
 
 __all__ = [
@@ -59,17 +58,31 @@ def transition_graph(catalogue: StateCatalogue) -> nx.Graph:
         attrs = {k: v for k, v in row.items() if k not in ("name", "seeds")}
         g.add_node(state.name, **attrs)
     states = catalogue.states
-    for i, a in enumerate(states):
-        for b in states[i + 1 :]:
-            if hamming(a.bits, b.bits) == 1:
-                bit = next(k for k, (x, y) in enumerate(zip(a.bits, b.bits, strict=True)) if x != y)
-                fold = catalogue.folds[bit]
-                name = catalogue.model.layout.fold_name(fold)
-                g.add_edge(
-                    a.name, b.name, fold=bit, fold_set=fold.set, fold_index=fold.index,
-                    fold_name=name,
-                )  # fmt: skip
+    fold_names = [catalogue.model.layout.fold_name(f) for f in catalogue.folds]
+    for i, j, bit in _single_fold_pairs([s.bits for s in states]):
+        fold = catalogue.folds[bit]
+        g.add_edge(
+            states[i].name, states[j].name, fold=bit, fold_set=fold.set, fold_index=fold.index,
+            fold_name=fold_names[bit],
+        )  # fmt: skip
     return g
+
+
+def _single_fold_pairs(bits: list[tuple[int, ...]]) -> list[tuple[int, int, int]]:
+    """(i, j, bit) for every pair i < j of bit tuples that differ in exactly one bit, in the
+    order (i, then j): each tuple's neighbours are looked up by flipping each bit, so the cost
+    is O(k n) for k tuples of n bits, not O(k² n)."""
+    where: dict[tuple[int, ...], list[int]] = {}
+    for i, b in enumerate(bits):
+        where.setdefault(b, []).append(i)
+    pairs: list[tuple[int, int, int]] = []
+    for i, b in enumerate(bits):
+        found: list[tuple[int, int]] = []
+        for bit in range(len(b)):
+            flipped = (*b[:bit], 1 - b[bit], *b[bit + 1 :])
+            found.extend((j, bit) for j in where.get(flipped, ()) if j > i)
+        pairs.extend((i, j, bit) for j, bit in sorted(found))
+    return pairs
 
 
 def barrier_weight(u: str, v: str, data: dict[str, Any], graph: nx.Graph) -> float:
