@@ -192,7 +192,7 @@ def merge_rows(q: np.ndarray, keep: np.ndarray, tolerance: float) -> np.ndarray:
     if rows.size == 0:
         return out
     x = np.asarray(q[rows], dtype=float)
-    w = np.random.default_rng(0).uniform(0.5, 1.5, x.shape[1])
+    w = np.asarray(np.random.default_rng(0).uniform(0.5, 1.5, x.shape[1]))
     p = x @ (w / w.sum())
     order = np.argsort(p, kind="stable")
     sorted_p = p[order]
