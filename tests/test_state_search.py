@@ -132,8 +132,8 @@ def test_a_large_exhaustive_search_is_refused_with_its_cost_before_any_work(monk
     model = biplan.Model(biplan.designs.fully_bistable(n_modules=7))  # 13 folds
     monkeypatch.setattr(seeding, "evaluate", _forbidden)
     monkeypatch.setattr(biplan.analysis.scaleout, "available_cores", lambda: 2)
-    # 8,192 seeds × 4.6e-5 s × 7² on 2 threads
-    with pytest.raises(biplan.ConfigError, match=r"8,192 seeds.*confirm.*about 9 s .* 2 threads"):
+    # 8,192 seeds × 3.0e-5 s × 7² on 2 threads
+    with pytest.raises(biplan.ConfigError, match=r"8,192 seeds.*confirm.*about 6 s .* 2 threads"):
         enumerate_states(model)
     with pytest.raises(biplan.ConfigError, match="search"):
         enumerate_states(model, search="exhaustive")  # type: ignore[arg-type]

@@ -8,9 +8,9 @@ single-fold changes from the all-closed one (:attr:`Search.NEIGHBOURHOOD`;
 modified-Newton descent of the energy at zero end load with the base clamped, and the exact
 KKT solve), classifies each fold by the phase that occupies the greater part of its length,
 keeps the equilibria whose reduced Hessian is positive definite and merges duplicates: two
-equilibria are one state when max |Δq| < ``Enumeration.duplicate_tolerance`` (a k-d tree in
-the max norm finds the candidates). Equilibria with the same bits but different coordinates
-stay distinct states.
+equilibria are one state when max |Δq| < ``Enumeration.duplicate_tolerance``
+(:func:`~biplan.analysis.states.seeding.merge_rows`). Equilibria with the same bits but
+different coordinates stay distinct states.
 
 Every seed's outcome is kept (:class:`SeedOutcome`): the state it reached, whether its bits
 are the seed's own, or why it was rejected (unstable equilibrium with its eigenvalue, failed

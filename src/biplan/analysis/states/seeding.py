@@ -69,9 +69,10 @@ NEIGHBOURHOOD_MAX_FOLDS = 62
 #: Seeds above which a search runs only when confirmed (``confirm=True``, ``--yes``).
 CONFIRM_SEEDS = 2**12
 #: Wall time per seed and thread [s] is about this × N² for N modules (relaxation and
-#: observation, fully bistable tubes, warm kernels, one thread on the 2-core development
-#: machine: 1.6 ms at N = 6, 3.0 ms at N = 8; docs/performance.md).
-SECONDS_PER_SEED = 4.6e-5
+#: observation, fully bistable tubes, warm kernels, on the 2-core development machine: 1.2 ms
+#: at N = 6 and 1.7 ms at N = 8 on one thread, 3.1 ms at N = 10 per Dask worker;
+#: docs/performance.md).
+SECONDS_PER_SEED = 3.0e-5
 
 Progress = Callable[[int, int], None]
 
@@ -184,8 +185,8 @@ def merge_rows(q: np.ndarray, keep: np.ndarray, tolerance: float) -> np.ndarray:
 
     Candidates come from a sorted projection p = q·w (fixed positive weights, Σw = 1): rows
     within the tolerance in the max norm are within it in p, so each row is compared only with
-    the rows of its window in p (O(k log k) for well-separated states; a k-d tree in the max
-    norm takes minutes for 5·10⁵ rows of 39 coordinates).
+    the rows of its window in p (O(k log k) for well-separated states: seconds for the
+    5·10⁵ seeds of N = 10).
     """
     out = np.full(len(q), -1, dtype=np.int64)
     rows = np.flatnonzero(keep)
