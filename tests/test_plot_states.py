@@ -18,7 +18,9 @@ import xarray as xr
 
 from biplan.plot.states import (
     MAX_NAME_CANDIDATES,
+    PALETTE,
     ROW_HEIGHT,
+    branch_colours,
     endpoint_space,
     transition_diagram,
 )
@@ -58,7 +60,7 @@ def test_transition_diagram_is_tall_enough_for_its_tallest_column(n_bits, talles
     assert gap >= labels[0].get_window_extent().height
 
 
-def _catalogue(n: int, seed: int = 3, theta_sign: float = 1.0) -> xr.Dataset:
+def _catalogue(n: int, seed: int = 3, theta_sign: float = 1.0, branches: int = 4) -> xr.Dataset:
     rng = np.random.default_rng(seed)
     theta = theta_sign * rng.uniform(0, 0.2, n)
     theta[0] = 0.218
@@ -69,7 +71,7 @@ def _catalogue(n: int, seed: int = 3, theta_sign: float = 1.0) -> xr.Dataset:
             "theta": ("state", theta),
             "Theta": ("state", theta / 0.218),
             "energy": ("state", rng.uniform(0, 3, n)),
-            "n_open_helical": ("state", rng.integers(0, 4, n)),
+            "n_open_helical": ("state", rng.integers(0, branches, n)),
         },
         coords={"state": [f"{k:03X}" for k in range(n)]},
         attrs={"initial_length": 14.4},
@@ -126,3 +128,21 @@ def test_a_transition_diagram_of_thousands_of_states_is_aggregated() -> None:
     buf = BytesIO()
     ax.figure.savefig(buf, format="png", dpi=100)  # draws in reasonable size and time
     assert buf.tell() < 2_000_000
+
+
+def test_endpoint_space_gives_every_slope_branch_its_own_colour() -> None:
+    """Ten modules have 11 slope branches, more than the palette's 8 colours: each branch
+    still gets its own colour, and the legend (two columns) covers no name."""
+    from matplotlib.colors import to_hex
+
+    ax = endpoint_space(_catalogue(400, branches=11))
+    fig = ax.figure
+    fig.savefig(BytesIO(), format="png", dpi=100)
+    renderer = fig.canvas.get_renderer()
+    colours = {to_hex(c.get_facecolor()[0]) for c in ax.collections}
+    assert len(ax.collections) == 11 and len(colours) == 11
+    legend = ax.get_legend()
+    assert legend._ncols == 2
+    box = legend.get_window_extent(renderer)
+    assert not any(t.get_window_extent(renderer).overlaps(box) for t in ax.texts if t.get_visible())
+    assert branch_colours(4) == list(PALETTE[:4])

@@ -36,6 +36,7 @@ if TYPE_CHECKING:
 
 __all__ = [
     "STATE_FIGURES",
+    "branch_colours",
     "distributions",
     "endpoint_space",
     "readable_labels",
@@ -59,6 +60,8 @@ MAX_NAME_CANDIDATES = 150
 DENSE_NAME_CANDIDATES = 40
 DENSE_STATES = 300
 
+#: Legend entries of the endpoint-space figure above which the legend has two columns.
+LEGEND_ROWS = 6
 #: Okabe–Ito colours for pathways and slope branches.
 PALETTE = ("#0072B2", "#D55E00", "#009E73", "#CC79A7", "#E69F00", "#56B4E9", "#F0E442", "#000000")
 
@@ -201,6 +204,17 @@ def _label_order(states: Any, points: np.ndarray) -> list[int]:
     return first + [int(k) for k in rest if int(k) not in first]
 
 
+def branch_colours(n: int) -> list[Any]:
+    """Colours of slope branches 0 … n − 1: the Okabe–Ito :data:`PALETTE` while it has
+    enough, else n distinct colours along viridis (so no two branches share a colour)."""
+    if n <= len(PALETTE):
+        return list(PALETTE[:n])
+    import matplotlib
+
+    cmap = matplotlib.colormaps["viridis"]
+    return [cmap(k / (n - 1)) for k in range(n)]
+
+
 def endpoint_space(states: Any, *, ax: Axes | None = None, annotate: bool = True) -> Axes:
     """3D scatter of the states in endpoint space (u_z/l₀, u_r/l₀, Θ), by slope branch.
 
@@ -223,14 +237,16 @@ def endpoint_space(states: Any, *, ax: Axes | None = None, annotate: bool = True
     th = np.asarray(states["Theta"].values, dtype=float)
     hel = np.asarray(states["n_open_helical"].values, dtype=int)
     marker = float(np.clip(14.0 * np.sqrt(66.0 / max(uz.size, 1)), 2.0, 14.0))
-    for b in np.unique(hel):
+    branches = np.unique(hel)
+    colours = branch_colours(int(branches.max(initial=0)) + 1)
+    for b in branches:
         sel = hel == b
         ax.scatter(  # type: ignore[misc]
             uz[sel],
             ur[sel],
             th[sel],
             s=marker,
-            color=PALETTE[int(b) % len(PALETTE)],
+            color=colours[int(b)],
             label=f"{b} open helical",
             depthshade=False,
         )
@@ -240,7 +256,10 @@ def endpoint_space(states: Any, *, ax: Axes | None = None, annotate: bool = True
     low = -1.0 if np.nanmin(th, initial=0.0) < 0.0 else 0.0
     ax.set_zlim(low, 1.0)  # type: ignore[attr-defined]
     ax.set_zticks(np.linspace(low, 1.0, 3 if low == 0.0 else 5))  # type: ignore[attr-defined]
-    legend = ax.legend(fontsize=FONT_SIZE - 1, frameon=False, loc="upper left")
+    columns = 1 if branches.size <= LEGEND_ROWS else 2
+    legend = ax.legend(
+        fontsize=FONT_SIZE - 1 - (columns - 1), frameon=False, loc="upper left", ncol=columns
+    )
     _style(ax)
     scale = f"Θ ∈ [{low:g}, 1]"
     if "theta" in states:
