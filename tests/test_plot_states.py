@@ -21,6 +21,7 @@ from biplan.plot.states import (
     PALETTE,
     ROW_HEIGHT,
     branch_colours,
+    display_extent,
     endpoint_space,
     transition_diagram,
 )
@@ -78,6 +79,35 @@ def _catalogue(n: int, seed: int = 3, theta_sign: float = 1.0, branches: int = 4
     )
 
 
+def _drawn_box(text, renderer):  # type: ignore[no-untyped-def]
+    """Where a 3D name is drawn: a new 2D text with its string and font at the display point
+    of its projected (x, y, z) (the figure's last draw)."""
+    from matplotlib.text import Text
+    from mpl_toolkits.mplot3d import proj3d
+
+    ax = text.axes
+    x, y, z = text.get_position_3d()
+    px, py, _ = proj3d.proj_transform(x, y, z, ax.get_proj())
+    dx, dy = ax.transData.transform((px, py))
+    probe = Text(dx, dy, text.get_text(), fontproperties=text.get_fontproperties())
+    probe.set_figure(text.figure)
+    probe.set_horizontalalignment(text.get_horizontalalignment())
+    probe.set_verticalalignment(text.get_verticalalignment())
+    return probe.get_window_extent(renderer)
+
+
+def test_names_are_measured_where_the_projection_draws_them() -> None:
+    """A 3D text's own window extent sits at its raw (x, y); the labels are placed by their
+    projected position."""
+    ax = endpoint_space(_catalogue(66))
+    ax.figure.savefig(BytesIO(), format="png", dpi=100)
+    renderer = ax.figure.canvas.get_renderer()
+    for t in ax.texts[:5]:
+        drawn = _drawn_box(t, renderer)
+        np.testing.assert_allclose(display_extent(t, renderer).bounds, drawn.bounds, atol=0.5)
+        assert not np.allclose(t.get_window_extent(renderer).bounds, drawn.bounds, atol=0.5)
+
+
 @pytest.mark.parametrize("n", [6, 66, 242])
 def test_endpoint_space_names_a_readable_subset_and_says_so(n) -> None:
     ax = endpoint_space(_catalogue(n))
@@ -85,7 +115,7 @@ def test_endpoint_space_names_a_readable_subset_and_says_so(n) -> None:
     fig.savefig(BytesIO(), format="png", dpi=100)  # the layout of the written file
     renderer = fig.canvas.get_renderer()
     shown = [t for t in ax.texts if t.get_visible()]
-    boxes = [t.get_window_extent(renderer) for t in shown]
+    boxes = [_drawn_box(t, renderer) for t in shown]
     for a, b in itertools.combinations(boxes, 2):
         assert not a.overlaps(b)
     legend = ax.get_legend().get_window_extent(renderer)
@@ -144,5 +174,7 @@ def test_endpoint_space_gives_every_slope_branch_its_own_colour() -> None:
     legend = ax.get_legend()
     assert legend._ncols == 2
     box = legend.get_window_extent(renderer)
-    assert not any(t.get_window_extent(renderer).overlaps(box) for t in ax.texts if t.get_visible())
+    shown = [_drawn_box(t, renderer) for t in ax.texts if t.get_visible()]
+    assert not any(b.overlaps(box) for b in shown)
+    assert not any(a.overlaps(b) for a, b in itertools.combinations(shown, 2))
     assert branch_colours(4) == list(PALETTE[:4])

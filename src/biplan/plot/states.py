@@ -37,6 +37,7 @@ if TYPE_CHECKING:
 __all__ = [
     "STATE_FIGURES",
     "branch_colours",
+    "display_extent",
     "distributions",
     "endpoint_space",
     "readable_labels",
@@ -181,13 +182,33 @@ def readable_labels(texts: Sequence[Any], occupied: Sequence[Any] = ()) -> list[
     kept: list[Any] = []
     boxes = [a.get_window_extent(renderer) for a in occupied]
     for text in texts:
-        box = text.get_window_extent(renderer).padded(LABEL_GAP / 2)
+        box = display_extent(text, renderer).padded(LABEL_GAP / 2)
         if any(box.overlaps(other) for other in boxes):
             text.set_visible(False)
             continue
         kept.append(text)
         boxes.append(box)
     return kept
+
+
+def display_extent(text: Any, renderer: Any) -> Any:
+    """A text's box in display coordinates, where it is drawn. A 3D text (``ax.text(x, y, z,
+    …)`` on 3D axes) is drawn at the projection of (x, y, z), but its ``get_window_extent``
+    places it at (x, y) in the projected plane; here it is measured at the projected point
+    (the axes' projection of the last draw)."""
+    if not hasattr(text, "get_position_3d"):
+        return text.get_window_extent(renderer)
+    from matplotlib.text import Text
+    from mpl_toolkits.mplot3d import proj3d
+
+    x, y, z = text.get_position_3d()
+    px, py, _ = proj3d.proj_transform(x, y, z, text.axes.M)
+    where = text.get_position()
+    Text.set_position(text, (px, py))
+    try:
+        return Text.get_window_extent(text, renderer)
+    finally:
+        Text.set_position(text, where)
 
 
 def _label_order(states: Any, points: np.ndarray) -> list[int]:
