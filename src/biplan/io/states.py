@@ -30,7 +30,6 @@ from biplan.analysis.states import seeding
 from biplan.analysis.states.catalogue import CSV_COLUMNS, Enumeration
 from biplan.analysis.states.hierarchy import hierarchy
 from biplan.analysis.states.labels import bistable_folds
-from biplan.analysis.states.search import MAX_FOLDS
 from biplan.analysis.states.transitions import write_graphml
 from biplan.io.config import dump_config
 from biplan.io.sweepstore import ChunkStore
@@ -87,7 +86,7 @@ def seed_store(
     n_folds = len(bistable_folds(model.tube))
     if n_folds == 0:
         raise ConfigError("config", model.tube.name, "a tube with at least one bistable fold law")
-    seeding.check_size(n_folds, model.tube.n_modules, search, confirm, MAX_FOLDS)
+    seeding.check_size(n_folds, model.tube.n_modules, search, confirm)
     if search is not seeding.Search.EXHAUSTIVE:
         return None
     settings = Enumeration()

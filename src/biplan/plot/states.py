@@ -195,14 +195,14 @@ def display_extent(text: Any, renderer: Any) -> Any:
     """A text's box in display coordinates, where it is drawn. A 3D text (``ax.text(x, y, z,
     …)`` on 3D axes) is drawn at the projection of (x, y, z), but its ``get_window_extent``
     places it at (x, y) in the projected plane; here it is measured at the projected point
-    (the axes' projection of the last draw)."""
+    (the axes' current projection)."""
     if not hasattr(text, "get_position_3d"):
         return text.get_window_extent(renderer)
     from matplotlib.text import Text
     from mpl_toolkits.mplot3d import proj3d
 
     x, y, z = text.get_position_3d()
-    px, py, _ = proj3d.proj_transform(x, y, z, text.axes.M)
+    px, py, _ = proj3d.proj_transform(x, y, z, text.axes.get_proj())
     where = text.get_position()
     Text.set_position(text, (px, py))
     try:

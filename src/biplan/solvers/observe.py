@@ -233,23 +233,24 @@ def observe_batch(
     """
     z = np.asarray(z, dtype=float)
     k = z.shape[0]
+    # the per-state arguments: z, and the load columns unless at rest
+    columns = (
+        [z] if loads is None else [z, *(np.broadcast_to(np.asarray(v, float), (k,)) for v in loads)]
+    )
+    fn = (
+        _observe_at_rest_layout.compiled(layout)
+        if loads is None
+        else _observe_layout.compiled(layout)
+    )
     parts: list[Observation] = []
-    if loads is None:
-        at_rest = _observe_at_rest_layout.compiled(layout)
-    else:
-        cols = [np.broadcast_to(np.asarray(v, dtype=float), (k,)) for v in loads]
-        general = _observe_layout.compiled(layout)
     for lo in range(0, k, CHUNK):
         hi = min(lo + CHUNK, k)
         pad = CHUNK - (hi - lo)
-        zc = jnp.asarray(np.concatenate([z[lo:hi], np.repeat(z[hi - 1 : hi], pad, axis=0)]))
-        if loads is None:
-            out = at_rest(params, zc)
-        else:
-            lc = Load(
-                *(jnp.asarray(np.concatenate([c[lo:hi], np.repeat(c[hi - 1], pad)])) for c in cols)
-            )
-            out = general(params, zc, lc)
+        zc, *lc = (
+            jnp.asarray(np.concatenate([c[lo:hi], np.repeat(c[hi - 1 : hi], pad, axis=0)]))
+            for c in columns
+        )
+        out = fn(params, zc) if loads is None else fn(params, zc, Load(*lc))
         parts.append(Observation(*(np.asarray(v)[: hi - lo] for v in out)))
     if not parts:
         raise ValueError("no states to observe")

@@ -55,10 +55,6 @@ __all__ = [
     "state_bits",
 ]
 
-#: Largest number of bistable folds enumerated exhaustively: 2²⁰ seeds (N = 10 has 19 folds),
-#: whose per-seed results (about 1 kB each at N = 10) are held in memory at the end.
-MAX_FOLDS = 20
-
 
 def state_bits(model: Model, q: np.ndarray) -> tuple[int, ...]:
     """Fold-state bits of coordinates ``q`` (free end first,
@@ -167,7 +163,7 @@ def enumerate_states(
     folds = bistable_folds(model.tube)
     if not folds:
         raise ConfigError("model", model.tube.name, "a tube with at least one bistable fold law")
-    seeding.check_size(len(folds), model.tube.n_modules, search, confirm, MAX_FOLDS)
+    seeding.check_size(len(folds), model.tube.n_modules, search, confirm)
     start = time.perf_counter()
     if search is Search.EXHAUSTIVE:
         res = seeding.exhaustive(model, folds, settings, sink, progress, runner)

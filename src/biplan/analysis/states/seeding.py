@@ -45,6 +45,7 @@ if TYPE_CHECKING:
 
 __all__ = [
     "CONFIRM_SEEDS",
+    "MAX_FOLDS",
     "SECONDS_PER_SEED",
     "Search",
     "cost_estimate",
@@ -64,8 +65,6 @@ __all__ = [
 #: Seeds whose equilibria agree to this [mm, rad] (max norm) share one observation: the
 #: polish converges to 10⁻⁹, so two seeds that reached one equilibrium agree far closer.
 SHARED_OBSERVATION = 1e-8
-#: Most bistable folds of a neighbourhood search (seed indices are 64-bit integers).
-NEIGHBOURHOOD_MAX_FOLDS = 62
 #: Seeds above which a search runs only when confirmed (``confirm=True``, ``--yes``).
 CONFIRM_SEEDS = 2**12
 #: Wall time per seed and thread [s] is about this × N² for N modules (relaxation and
@@ -82,6 +81,12 @@ class Search(enum.Enum):
 
     EXHAUSTIVE = "exhaustive"
     NEIGHBOURHOOD = "neighbourhood"
+
+
+#: Most bistable folds of each search. Exhaustive: 2²⁰ seeds (N = 10 has 19 folds), every
+#: seed's result held in memory at the end (the N = 10 run peaked at 4.8 GB); neighbourhood:
+#: seed indices are 64-bit integers.
+MAX_FOLDS = {Search.EXHAUSTIVE: 20, Search.NEIGHBOURHOOD: 62}
 
 
 def fold_vector_index(model: Model, fold: FoldRef) -> int:
@@ -347,9 +352,10 @@ def neighbourhood(
     return {k: v[order] for k, v in out.items()}
 
 
-def check_size(n_folds: int, n_modules: int, search: Search, confirm: bool, max_folds: int) -> None:
-    """Refuse, before any work, a search too large to run unasked (with its cost estimate)."""
-    limit = max_folds if search is Search.EXHAUSTIVE else NEIGHBOURHOOD_MAX_FOLDS
+def check_size(n_folds: int, n_modules: int, search: Search, confirm: bool) -> None:
+    """Refuse, before any work, a search too large to run (:data:`MAX_FOLDS`) or too large to
+    run unasked (with its cost estimate)."""
+    limit = MAX_FOLDS[search]
     if n_folds > limit:
         raise ConfigError(
             "model", f"{n_folds} bistable folds", f"at most {limit} for the {search.value} search"
