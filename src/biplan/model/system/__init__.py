@@ -1,0 +1,103 @@
+"""One :class:`System` between the model and every iteration: the KKT system of a tube at a
+load, evaluated by compiled element kernels (Numba) with the tube's layout as data.
+
+The kernels (:mod:`.elements`, :mod:`.chainterm`, :mod:`.assemble`) compile once per install
+(``cache=True``: Numba's cache, next to the package when it is writable, else in the user's
+cache directory; nothing is written at import) and serve every tube: the number of modules,
+the connector kinds and the readings are arrays of :class:`~.tables.SystemData`. Their
+derivatives are written by hand from the element energies and checked against the JAX
+autodiff oracle (:mod:`biplan.model.oracle`).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import Any
+
+import numpy as np
+
+from biplan._errors import ConfigError
+from biplan.model.system import assemble
+from biplan.model.system.tables import SystemData, is_supported, system_data
+from biplan.model.tube import Tube
+
+__all__ = ["System", "SystemData", "is_supported", "system_data"]
+
+
+@dataclass(frozen=True)
+class System:
+    """The KKT system r(z) = 0 of a tube at one load (MODEL §11), z = [q, λ, λ_∂, μ].
+
+    Parameters
+    ----------
+    data : SystemData
+        The tube as arrays (:func:`system_data`).
+    load : ndarray (3,)
+        (F [N], U [mm], d): end force, prescribed load-point displacement and 1.0 under
+        displacement control (else 0.0).
+    """
+
+    data: SystemData
+    load: np.ndarray
+
+    @staticmethod
+    def of(tube: Tube, force: float = 0.0, displacement: float = 0.0, control: float = 0.0) -> System:
+        """The system of a tube at a load (its readings must be :func:`is_supported`)."""
+        layout = tube.layout
+        if not is_supported(layout):
+            raise ConfigError(
+                "options.chain_offset/chain_attachment",
+                f"{layout.options.chain_offset.value}/{layout.options.chain_attachment.value}",
+                "exact/element for the compiled system",
+            )
+        dev = tube.development
+        data = system_data(
+            layout,
+            dev.radius,
+            dev.pitch,
+            dev.beta,
+            np.array([law.coefficients for law in tube.helical_laws], dtype=float),
+            np.array([law.coefficients for law in tube.circular_laws], dtype=float).reshape(
+                -1, 5
+            ),
+        )
+        return System(data, np.array([force, displacement, control], dtype=float))
+
+    def at(self, force: float = 0.0, displacement: float = 0.0, control: float = 0.0) -> System:
+        """The same tube at another load."""
+        return System(self.data, np.array([force, displacement, control], dtype=float))
+
+    def with_bias(self, anchor: np.ndarray, stiffness: float) -> System:
+        """The system whose Lagrangian carries the proximal bias ½κ‖q − q_a‖² [N·mm]."""
+        data = self.data._replace(
+            bias_anchor=np.asarray(anchor, dtype=float),
+            bias_stiffness=np.array([float(stiffness)]),
+        )
+        return System(data, self.load)
+
+    @property
+    def sizes(self) -> tuple[int, int, int]:
+        """(n_q, n_g, n_c)."""
+        n_q, n_g, n_c = (int(v) for v in self.data.sizes)
+        return n_q, n_g, n_c
+
+    @property
+    def n_unknowns(self) -> int:
+        return sum(self.sizes) + 1
+
+    def residual(self, z: np.ndarray) -> np.ndarray:
+        """r(z) (n_z,)."""
+        return assemble.residual(self.data, np.asarray(z, dtype=float), self.load)
+
+    def jacobian(self, z: np.ndarray) -> np.ndarray:
+        """∂r/∂z (n_z, n_z)."""
+        return assemble.jacobian(self.data, np.asarray(z, dtype=float), self.load)
+
+    def evaluate(self, z: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """(r, ∂r/∂z) at z in one pass."""
+        out = assemble.evaluate(self.data, np.asarray(z, dtype=float), self.load, True)
+        return out[0], out[1]
+
+    def terms(self, z: np.ndarray) -> Any:
+        """(r, J, z_p, ∇z_p, element terms) at z (:func:`.assemble.evaluate`)."""
+        return assemble.evaluate(self.data, np.asarray(z, dtype=float), self.load, True)
