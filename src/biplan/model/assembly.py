@@ -42,6 +42,7 @@ from biplan.model.potential import (
     guide_values,
     load_height,
 )
+from biplan.model.system import System, is_supported
 from biplan.model.tube import Tube
 from biplan.options import ModelOptions
 
@@ -157,6 +158,23 @@ class Model:
     def options(self) -> ModelOptions:
         return self.tube.options
 
+    def system(self, load: Load | None = None) -> System | None:
+        """The compiled :class:`~biplan.model.system.System` of this model at ``load``
+        (default: at rest), or None where its chain readings are not covered
+        (:func:`~biplan.model.system.is_supported`)."""
+        if not is_supported(self.layout):
+            return None
+        base = self.__dict__.get("_system")
+        if base is None:
+            base = System.of(self.tube)
+            kappa = float(self.params.bias_stiffness)
+            if kappa:
+                base = base.with_bias(np.asarray(self.params.bias_anchor), kappa)
+            self.__dict__["_system"] = base
+        if load is None:
+            return base
+        return base.at(float(load.force), float(load.displacement), float(load.displacement_control))
+
     def with_bias(self, anchor: Array, stiffness: float) -> Model:
         """A copy whose Lagrangian carries the proximal bias ½κ‖q − q_a‖² [N·mm].
 
@@ -172,6 +190,7 @@ class Model:
         if kappa < 0:
             raise ConfigError("stiffness", kappa, ">= 0")
         out = copy.copy(self)
+        out.__dict__.pop("_system", None)
         out.params = self.params._replace(
             bias_anchor=jnp.asarray(anchor), bias_stiffness=jnp.asarray(kappa)
         )

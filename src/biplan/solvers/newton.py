@@ -20,8 +20,11 @@ from biplan._errors import ConfigError, ConvergenceError, check_integer, check_r
 from biplan.geometry.layout import TubeLayout
 from biplan.model.assembly import Load, Model, kernels
 from biplan.model.lagrangian import StateData, state_from_jacobian
+from biplan.model.system import System
+from biplan.solvers import iteration
 from biplan.solvers.core import LoopState, machine
 from biplan.solvers.core_settings import Settings, Status
+from biplan.solvers.iteration import settings_array
 
 __all__ = ["Newton", "Solution", "Status", "relaxed_reference", "solve_equilibrium"]
 
@@ -296,6 +299,9 @@ def solve_equilibrium(
     if not isinstance(load, Load):
         raise ConfigError("load", load, "a biplan Load (Load.of_force / Load.of_displacement)")
     z0 = _start_vector(model, model.zeros() if start is None else start)
+    system = model.system(load)
+    if system is not None:
+        return _solve_compiled(model, system, method, z0, load, throw)
     loop = solve_loop.compiled(model.layout)
     jload = load.for_kernel()
     out, data = loop(model.params, jnp.asarray(z0), jload, method.settings())
@@ -314,6 +320,33 @@ def solve_equilibrium(
     # whose start was already non-finite has none, and its state is evaluated afresh
     data = data if np.isfinite(float(out.f)) else None
     sol = make_solution(model, np.asarray(out.z), load, status, rnorm, steps, data)
+    sol = replace(sol, restarts=restarts) if restarts else sol
+    if throw and not sol.converged:
+        raise ConvergenceError(f"equilibrium solve for {load}: {sol.message}")
+    return sol
+
+
+def _solve_compiled(
+    model: Model, system: System, method: Newton, z0: np.ndarray, load: Load, throw: bool
+) -> Solution:
+    """:func:`solve_equilibrium` by the compiled Newton on the model's System."""
+    settings = settings_array(
+        method.atol, method.max_steps, method.max_backtracks, method.armijo, method.free_steps
+    )
+    z, r, f, jac, steps, status = iteration.newton(system.data, system.load, z0, settings)
+    restarts = 0
+    q0, lam0, lam_c0, mu0 = model.split(z0)
+    if method.contact_restart and status != Status.CONVERGED.value and np.any(lam_c0):
+        # the start's contact multipliers can be smoothing artefacts (Newton.contact_restart)
+        cold = model.pack(q0, lam0, None, mu0)
+        retry = iteration.newton(system.data, system.load, cold, settings)
+        restarts, steps = 1, steps + retry[4]
+        if retry[5] == Status.CONVERGED.value:
+            z, r, f, jac, _, status = retry
+    # the Jacobian is at z once a pass was accepted (finite merit); else evaluated afresh
+    data = system.state(z, jac if np.isfinite(f) else None)
+    rnorm = float(np.max(np.abs(r)))
+    sol = make_solution(model, z, load, Status(int(status)), rnorm, int(steps), data)
     sol = replace(sol, restarts=restarts) if restarts else sol
     if throw and not sol.converged:
         raise ConvergenceError(f"equilibrium solve for {load}: {sol.message}")

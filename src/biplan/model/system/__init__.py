@@ -17,7 +17,7 @@ from typing import Any
 import numpy as np
 
 from biplan._errors import ConfigError
-from biplan.model.system import assemble
+from biplan.model.system import assemble, chainterm
 from biplan.model.system.tables import SystemData, is_supported, system_data
 from biplan.model.tube import Tube
 
@@ -98,6 +98,47 @@ class System:
         out = assemble.evaluate(self.data, np.asarray(z, dtype=float), self.load, True)
         return out[0], out[1]
 
-    def terms(self, z: np.ndarray) -> Any:
-        """(r, J, z_p, ∇z_p, element terms) at z (:func:`.assemble.evaluate`)."""
-        return assemble.evaluate(self.data, np.asarray(z, dtype=float), self.load, True)
+    def endpoint(self, q: np.ndarray) -> tuple[float, float, float]:
+        """(u_z [mm], u_r [mm], θ [rad]) of the free end relative to q = 0 (MODEL R2)."""
+        now = _edge_observables(chainterm.edge_points(self.data, np.asarray(q, dtype=float)), self.data)
+        ref = _edge_observables(chainterm.edge_points(self.data, np.zeros(self.sizes[0])), self.data)
+        return now[0] - ref[0], now[1] - ref[1], now[2] - ref[2]
+
+    def state(self, z: np.ndarray, jac: np.ndarray | None = None) -> Any:
+        """The :class:`~biplan.model.lagrangian.StateData` at z (K, G and C taken from the KKT
+        Jacobian ``jac`` at z when given, e.g. the one a Newton solve ends with)."""
+        from biplan.geometry.chain import Endpoint
+        from biplan.model.lagrangian import StateData
+
+        z = np.asarray(z, dtype=float)
+        n_q, n_g, n_c = self.sizes
+        jac = self.jacobian(z) if jac is None else jac
+        zp, a, e_hel, e_circ, gaps = assemble.observe(self.data, z)
+        return StateData(
+            energy=float(e_hel.sum() + e_circ.sum()),
+            helical_energy=e_hel,
+            circular_energy=e_circ,
+            load_displacement=zp,
+            endpoint=Endpoint(*self.endpoint(z[:n_q])),
+            lagrangian_hessian=jac[:n_q, :n_q],
+            constraint_jacobian=np.concatenate(
+                [jac[n_q : n_q + n_g, :n_q], -jac[:n_q, n_q + n_g : n_q + n_g + n_c].T, a[None]]
+            ),
+            gaps=gaps,
+        )
+
+
+def _edge_observables(segs: np.ndarray, data: SystemData) -> tuple[float, float, float]:
+    """Mean z, mean s and tilt θ of the free-end edge (:func:`biplan.geometry.chain._edge_stats`
+    for ``EndpointDefinition.EDGE``; the seam node and its segment's slope otherwise)."""
+    if data.flags[1] == 1:
+        p0, p1 = segs[0, 0], segs[0, 1]
+        return p0[0], p0[1], float(np.arctan(-(p1[0] - p0[0]) / (p1[1] - p0[1])))
+    z0, z1, s0, s1 = segs[:, 0, 0], segs[:, 1, 0], segs[:, 0, 1], segs[:, 1, 1]
+    length = np.hypot(z1 - z0, s1 - s0)
+    total = length.sum()
+    zm = (length * (z0 + z1) / 2).sum() / total
+    sm = (length * (s0 + s1) / 2).sum() / total
+    ss = (length * (s0**2 + s0 * s1 + s1**2) / 3).sum() / total - sm**2
+    zs = (length * (2 * z0 * s0 + z0 * s1 + z1 * s0 + 2 * z1 * s1) / 6).sum() / total - zm * sm
+    return float(zm), float(sm), float(np.arctan(-zs / ss))

@@ -21,7 +21,7 @@ from numba import njit
 from biplan.model.system.chainterm import load_point, reference_height
 from biplan.model.system.elements import connector_points, field_energy, module_rows
 
-__all__ = ["Terms", "evaluate", "jacobian", "residual", "terms"]
+__all__ = ["evaluate", "jacobian", "observe", "residual", "terms"]
 
 
 @njit(cache=True)
@@ -254,4 +254,16 @@ def jacobian(d: tuple, z: np.ndarray, load: np.ndarray) -> np.ndarray:  # type: 
     return evaluate(d, z, load, True)[1]
 
 
-Terms = tuple
+
+
+
+@njit(cache=True)
+def observe(d: tuple, z: np.ndarray) -> tuple:  # type: ignore[type-arg]
+    """(z_p [mm], ∇z_p (n_q,), helical energies (N,), circular energies (Nc,), gaps (n_c,))
+    at z, whatever the load (the first-order data of a state)."""
+    n_q, n_g, n_c = d.sizes[0], d.sizes[1], d.sizes[2]
+    q = z[:n_q]
+    t = terms(d, q, z[n_q : n_q + n_g], z[n_q + n_g : n_q + n_g + n_c], False)
+    a = np.zeros(n_q)
+    zp = load_point(d, q, a, np.zeros((0, 0)), 0.0, False) - reference_height(d)
+    return zp, a, t[6], t[7], t[3]

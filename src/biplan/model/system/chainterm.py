@@ -232,3 +232,32 @@ def load_point(
 def reference_height(d: tuple) -> float:  # type: ignore[type-arg]
     """Z(0): the load point at q = 0 (depends on the geometry only)."""
     return _height(d, np.zeros(d.sizes[0]))
+
+
+@njit(cache=True)
+def edge_points(d: tuple, q: np.ndarray) -> np.ndarray:  # type: ignore[type-arg]
+    """Global (z, s) [mm] of the free-end edge's segment ends, (S, 2, 2) (the top module's
+    nodes in the frame composed up the chain; :func:`biplan.geometry.chain.end_edge_points`)."""
+    n, nc = d.ref.shape[0], d.conn_upper.shape[0]
+    theta, pz, ps = 0.0, 0.0, 0.0
+    x = np.zeros(7)
+    for c in range(nc):
+        dofs = _dofs(d, c)
+        for k in range(7):
+            x[k] = 0.0 if dofs[k] < 0 else q[dofs[k]]
+        alpha, tz, ts, _, _ = _increment(x, d, c, False)
+        ct, st = math.cos(theta), math.sin(theta)
+        pz += ct * tz - st * ts
+        ps += st * tz + ct * ts
+        theta += alpha
+    ct, st = math.cos(theta), math.sin(theta)
+    segs = d.end_segments
+    out = np.zeros((segs.shape[0], 2, 2))
+    x_top = q[3 * n - 3 : 3 * n]
+    for j in range(segs.shape[0]):
+        for end in range(2):
+            i = segs[j, end]
+            z, s, _, _, _, _ = node(x_top, d.ref[n - 1], i, 0 if i < 4 else 1)
+            out[j, end, 0] = pz + ct * z - st * s
+            out[j, end, 1] = ps + st * z + ct * s
+    return out

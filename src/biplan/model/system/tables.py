@@ -16,7 +16,13 @@ import numpy as np
 
 from biplan.geometry import chain, frames
 from biplan.geometry.layout import TubeLayout
-from biplan.options import ContactForm, LoadPoint, MirrorConvention, ModuleKind
+from biplan.options import (
+    ContactForm,
+    EndpointDefinition,
+    LoadPoint,
+    MirrorConvention,
+    ModuleKind,
+)
 
 __all__ = ["SystemData", "is_supported", "system_data"]
 
@@ -31,7 +37,7 @@ class SystemData(NamedTuple):
     # sizes (n_q, n_g, n_c) and scalar numbers
     sizes: np.ndarray  # (3,) int: n_q, n_g, n_c
     scalars: np.ndarray  # (7,) l, H, a, ε, c (contact compliance), τ (smooth minimum), H1
-    flags: np.ndarray  # (2,) int: contact form (0 per endpoint, 1 minimum), κ-bias on (0/1)
+    flags: np.ndarray  # (2,) int: contact form (0 per endpoint, 1 minimum), endpoint (0 edge, 1 seam)
     # modules
     ref: np.ndarray  # (N, 7, 2) reference nodes in each module frame
     n_c: np.ndarray  # (N, 2) crease tangent
@@ -133,7 +139,10 @@ def system_data(
                 h1,
             ]
         ),
-        flags=np.array([1 if minimum else 0, 0], dtype=np.int64),
+        flags=np.array(
+            [1 if minimum else 0, 0 if opts.endpoint is EndpointDefinition.EDGE else 1],
+            dtype=np.int64,
+        ),
         ref=ref,
         n_c=n_c,
         n_sp=n_sp,

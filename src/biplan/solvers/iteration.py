@@ -1,0 +1,136 @@
+"""The compiled Newton iteration on a :class:`~biplan.model.system.System` (Numba; MODEL §11).
+
+The same globalised Newton as :func:`biplan.solvers.core.machine` (one trial point a pass):
+Armijo backtracking on the merit ½‖r‖², a Levenberg–Marquardt fallback with adaptive damping
+once the halvings are spent (or when the Newton system is singular), and the watchdog of free
+steps (Chamberlain et al. 1982). The start enters as the first trial point (merit +∞, accepted
+when finite); the Jacobian is evaluated at accepted points only. Settings arrive as one array
+built from :class:`~biplan.solvers.Newton` (:func:`settings_array`).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+from numba import njit
+
+from biplan.model.system.assemble import evaluate
+from biplan.solvers.core_settings import Status
+
+__all__ = ["newton", "settings_array"]
+
+_CONVERGED = Status.CONVERGED.value
+_MAX_STEPS = Status.MAX_STEPS.value
+_FAILED = Status.LINE_SEARCH_FAILED.value
+_NONFINITE = Status.NONFINITE.value
+
+
+def settings_array(
+    atol: float, max_steps: int, max_backtracks: int, armijo: float, free_steps: int
+) -> np.ndarray:
+    """The settings of :func:`newton` as the array it takes."""
+    return np.array([atol, max_steps, max_backtracks, armijo, free_steps], dtype=float)
+
+
+@njit(cache=True)
+def _solve(a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    """a⁻¹ b by LU; NaN where a is singular (as JAX's solve reports it)."""
+    try:
+        return np.linalg.solve(a, b)
+    except Exception:  # noqa: BLE001 - LAPACK's singular-matrix error
+        return np.full(b.shape[0], np.nan)
+
+
+@njit(cache=True)
+def _finite(x: np.ndarray) -> bool:
+    return bool(np.all(np.isfinite(x)))
+
+
+@njit(cache=True)
+def _lm_direction(jac: np.ndarray, r: np.ndarray, damping: float) -> np.ndarray:
+    """Levenberg–Marquardt step (JᵀJ + ν diag(JᵀJ + 1e-12)) dz = −Jᵀr (0 where not finite)."""
+    jtj = jac.T @ jac
+    a = jtj.copy()
+    for i in range(a.shape[0]):
+        a[i, i] += damping * (jtj[i, i] + 1e-12)
+    step = _solve(a, -(jac.T @ r))
+    for i in range(step.shape[0]):
+        if not np.isfinite(step[i]):
+            step[i] = 0.0
+    return step
+
+
+@njit(cache=True)
+def newton(d: tuple, load: np.ndarray, z0: np.ndarray, settings: np.ndarray) -> tuple:  # type: ignore[type-arg]
+    """Solve r(z) = 0 of the system (d, load) from z0.
+
+    Returns (z, r, merit f, Jacobian at z, steps, status); the Jacobian is the one at z once a
+    pass was accepted (finite f).
+    """
+    atol, max_steps, max_bt, c_arm = settings[0], int(settings[1]), int(settings[2]), settings[3]
+    free = int(settings[4])
+    alpha_min = 0.5**max_bt
+    max_evals = max(max_steps, 1) * (max_bt + 1)
+    n = z0.shape[0]
+    z = z0.copy()
+    r = np.zeros(n)
+    f = np.inf
+    jac = np.eye(n)
+    dz = np.zeros(n)
+    slope, alpha, lm, damping = 0.0, 0.0, False, 1e-3
+    steps, evals, status = 0, 0, -1
+    best_z, best_r, best_f, best_jac, best_dz, best_lm = z.copy(), r.copy(), np.inf, jac, dz, False
+    while status < 0 and evals < max_evals:
+        zt = z + alpha * dz
+        rt = evaluate(d, zt, load, False)[0]
+        ft = 0.5 * (rt @ rt)
+        if not np.isfinite(ft):
+            ft = np.inf
+        if lm:
+            accept = ft < f
+        else:
+            accept = ft <= f + c_arm * alpha * slope
+        accept = (accept or not np.isfinite(f) or free > 0) and np.isfinite(ft)
+        to_lm = lm or alpha * 0.5 < alpha_min
+        damping_r = damping * 10.0 if lm else damping
+        was_finite = np.isfinite(f)
+        if accept:
+            jt = evaluate(d, zt, load, True)[1]
+            dz_n = _solve(jt, -rt)
+            newton_ok = _finite(dz_n)
+            dz_a = dz_n if newton_ok else _lm_direction(jt, rt, damping)
+            z, r, f, jac, dz = zt, rt, ft, jt, dz_a
+            slope = rt @ (jt @ dz_a)
+            alpha, lm, damping = 1.0, not newton_ok, max(damping * 0.3, 1e-9)
+            if was_finite:
+                steps += 1
+            if np.max(np.abs(rt)) < atol:
+                status = _CONVERGED
+            elif steps >= max_steps:
+                status = _MAX_STEPS
+        else:
+            if to_lm:
+                dz = _lm_direction(jac, r, damping_r)
+                alpha = 1.0
+            else:
+                alpha = 0.5 * alpha
+            slope = r @ (jac @ dz)
+            lm, damping = to_lm, damping_r
+            if damping_r > 1e12:
+                status = _FAILED
+            elif steps >= max_steps:
+                status = _MAX_STEPS
+        evals += 1
+        # watchdog: count the free step, keep the best iterate, go back to it when spent
+        used = accept and was_finite and free > 0
+        if used:
+            free -= 1
+        if accept and f < best_f:
+            best_z, best_r, best_f, best_jac, best_dz, best_lm = z, r, f, jac, dz, lm
+        if used and free == 0 and status != _CONVERGED and best_f < f:
+            z, r, f, jac, dz, lm = best_z, best_r, best_f, best_jac, best_dz, best_lm
+            slope, alpha = r @ (jac @ dz), 1.0
+    if status < 0:
+        status = _MAX_STEPS
+    if not np.isfinite(f):
+        status = _NONFINITE
+    return z, r, f, jac, steps, status
