@@ -24,7 +24,8 @@ F = 1.3 N. Prints:
   then neither reads nor writes the in-tree cache); and ``import jax`` alone, which
   ``biplan.model.system`` pulls in through ``biplan.geometry``;
 * a summary line against the targets: warm Jacobian at N = 48 ≤ 10× N = 6 (Numba, py and
-  loop) and cold start with a warm cache ≤ 2 s.
+  loop) and cold start with a warm cache ≤ 2 s; and the load average at start and end (on a
+  2-core machine another busy process doubles the JAX compiles and skews the rest).
 
 ``--quick``: N = 6, 12 and JAX at N = 6 only (a fast check that everything runs).
 """
@@ -45,12 +46,12 @@ os.environ["BIPLAN_JAX_CACHE"] = "off"
 os.environ["BIPLAN_KERNEL_STORE"] = "off"
 os.environ.pop("BIPLAN_FAST_COMPILE", None)
 
-import numba  # noqa: E402
-import numpy as np  # noqa: E402
+import numba
+import numpy as np
 
-import biplan  # noqa: E402
-from biplan.model.params import Load  # noqa: E402
-from biplan.model.system import System, assemble  # noqa: E402
+import biplan
+from biplan.model.params import Load
+from biplan.model.system import System, assemble
 
 FORCE = 1.3
 
@@ -245,7 +246,10 @@ def main() -> None:
         f"one-time in this process: Numba cached kernels loaded {t1 - t0:.2f} s (N = 3), "
         f"benchmark njit loop compiled {t2 - t1:.2f} s, JAX backend up {t3 - t2:.2f} s"
     )
-    print(f"threads: numba {numba.get_num_threads()}, CPUs {os.cpu_count()}\n")
+    print(
+        f"threads: numba {numba.get_num_threads()}, CPUs {os.cpu_count()}; load average "
+        f"{os.getloadavg()[0]:.1f} at start (other processes skew every number here)\n"
+    )
 
     rows = []
     for n in sizes:
@@ -319,6 +323,7 @@ def main() -> None:
     parts.append(f"cold start, cache warm = {warm['total']:.2f} s (≤ 2 s: {ok})")
     parts.append(f"one-time compile = {fresh['total']:.1f} s")
     print("Summary: " + "; ".join(parts))
+    print(f"(load average {os.getloadavg()[0]:.1f} at the end)")
 
 
 if __name__ == "__main__":

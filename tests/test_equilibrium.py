@@ -41,7 +41,9 @@ def assert_equilibrium(model, sol):
     assert np.min(model.contact_gaps(sol.q) + c * sol.contact_multipliers) > -1e-9
     assert np.min(sol.contact_multipliers) > -1e-9
     assert sol.energy == pytest.approx(model.energy(sol.q), rel=1e-14, abs=1e-16)
-    assert sol.displacement == pytest.approx(model.load_displacement(sol.q), abs=1e-14)
+    # the compiled z_p and the JAX kernel sum the chain (Z ≈ 20 mm) in different orders: a few
+    # ulp of Z apart
+    assert sol.displacement == pytest.approx(model.load_displacement(sol.q), abs=1e-13)
 
 
 def _closure_bound(model, force):

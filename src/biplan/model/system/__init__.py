@@ -61,6 +61,7 @@ class System:
                 -1, 5
             ),
         )
+        data = data._replace(load_reference=np.array([chainterm.reference_height(data)]))
         return System(data, np.array([force, displacement, control], dtype=float))
 
     def at(self, force: float = 0.0, displacement: float = 0.0, control: float = 0.0) -> System:

@@ -18,7 +18,7 @@ import math
 import numpy as np
 from numba import njit
 
-from biplan.model.system.chainterm import load_point, reference_height
+from biplan.model.system.chainterm import load_point
 from biplan.model.system.elements import connector_points, field_energy, module_rows
 
 __all__ = ["evaluate", "jacobian", "observe", "residual", "terms"]
@@ -212,7 +212,7 @@ def evaluate(
     a = np.zeros(n_q)
     zp = 0.0
     if force != 0.0 or ctrl != 0.0:  # at rest the load point's terms vanish
-        zp = load_point(d, q, a, hess, coef, second) - reference_height(d)
+        zp = load_point(d, q, a, hess, coef, second) - d.load_reference[0]
     r = np.empty(n_z)
     for i in range(n_q):
         r[i] = grad[i] + coef * a[i] + kappa * (q[i] - d.bias_anchor[i])
@@ -265,5 +265,5 @@ def observe(d: tuple, z: np.ndarray) -> tuple:  # type: ignore[type-arg]
     q = z[:n_q]
     t = terms(d, q, z[n_q : n_q + n_g], z[n_q + n_g : n_q + n_g + n_c], False)
     a = np.zeros(n_q)
-    zp = load_point(d, q, a, np.zeros((0, 0)), 0.0, False) - reference_height(d)
+    zp = load_point(d, q, a, np.zeros((0, 0)), 0.0, False) - d.load_reference[0]
     return zp, a, t[6], t[7], t[3]

@@ -66,6 +66,7 @@ class SystemData(NamedTuple):
     end_segments: np.ndarray  # (S, 2) node indices of the free-end edge segments
     bias_anchor: np.ndarray  # (n_q,) anchor of the proximal bias ½κ‖q − q_a‖²
     bias_stiffness: np.ndarray  # (1,) κ
+    load_reference: np.ndarray  # (1,) Z(0), the load point at q = 0 [mm] (geometry only)
 
 
 def is_supported(layout: TubeLayout) -> bool:
@@ -167,6 +168,7 @@ def system_data(
         end_segments=segs,
         bias_anchor=np.zeros(n_q),
         bias_stiffness=np.zeros(1),
+        load_reference=np.zeros(1),
     )
 
 
