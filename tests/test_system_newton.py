@@ -31,7 +31,7 @@ def test_compiled_newton_takes_the_jax_iterates(model6, reference6, case):
     s = iteration.settings_array(
         method.atol, method.max_steps, method.max_backtracks, method.armijo, method.free_steps
     )
-    z, r, f, jac, steps, status = iteration.newton(system.data, system.load, reference6.z, s)
+    z, _, _, jac, steps, status = iteration.newton(system.data, system.load, reference6.z, s)
     out, _ = solve_loop.compiled(model6.layout)(
         model6.params, reference6.z, load.for_kernel(), method.settings()
     )
@@ -52,7 +52,9 @@ def test_solution_data_equal_the_jax_model(model6, reference6):
     ref = model6.state(sol.z, load)
     assert sol.energy == pytest.approx(float(ref.energy), rel=1e-12)
     np.testing.assert_allclose(sol.data.helical_energy, ref.helical_energy, rtol=1e-11, atol=1e-15)
-    np.testing.assert_allclose(sol.data.circular_energy, ref.circular_energy, rtol=1e-11, atol=1e-15)
+    np.testing.assert_allclose(
+        sol.data.circular_energy, ref.circular_energy, rtol=1e-11, atol=1e-15
+    )
     np.testing.assert_allclose(sol.data.endpoint, ref.endpoint, rtol=1e-12, atol=1e-13)
     np.testing.assert_allclose(sol.data.gaps, ref.gaps, atol=1e-13)
     np.testing.assert_allclose(

@@ -173,7 +173,9 @@ class Model:
             self.__dict__["_system"] = base
         if load is None:
             return base
-        return base.at(float(load.force), float(load.displacement), float(load.displacement_control))
+        return base.at(
+            float(load.force), float(load.displacement), float(load.displacement_control)
+        )
 
     def with_bias(self, anchor: Array, stiffness: float) -> Model:
         """A copy whose Lagrangian carries the proximal bias ½κ‖q − q_a‖² [N·mm].

@@ -14,6 +14,7 @@ import numpy as np
 from numba import njit
 
 from biplan.model.system.assemble import evaluate
+from biplan.model.system.tables import SystemData
 from biplan.solvers.core_settings import Status
 
 __all__ = ["newton", "settings_array"]
@@ -36,7 +37,7 @@ def _solve(a: np.ndarray, b: np.ndarray) -> np.ndarray:
     """a⁻¹ b by LU; NaN where a is singular (as JAX's solve reports it)."""
     try:
         return np.linalg.solve(a, b)
-    except Exception:  # noqa: BLE001 - LAPACK's singular-matrix error
+    except Exception:
         return np.full(b.shape[0], np.nan)
 
 
@@ -60,7 +61,7 @@ def _lm_direction(jac: np.ndarray, r: np.ndarray, damping: float) -> np.ndarray:
 
 
 @njit(cache=True)
-def newton(d: tuple, load: np.ndarray, z0: np.ndarray, settings: np.ndarray) -> tuple:  # type: ignore[type-arg]
+def newton(d: SystemData, load: np.ndarray, z0: np.ndarray, settings: np.ndarray) -> tuple:  # type: ignore[type-arg]
     """Solve r(z) = 0 of the system (d, load) from z0.
 
     Returns (z, r, merit f, Jacobian at z, steps, status); the Jacobian is the one at z once a
@@ -85,10 +86,7 @@ def newton(d: tuple, load: np.ndarray, z0: np.ndarray, settings: np.ndarray) -> 
         ft = 0.5 * (rt @ rt)
         if not np.isfinite(ft):
             ft = np.inf
-        if lm:
-            accept = ft < f
-        else:
-            accept = ft <= f + c_arm * alpha * slope
+        accept = ft < f if lm else ft <= f + c_arm * alpha * slope
         accept = (accept or not np.isfinite(f) or free > 0) and np.isfinite(ft)
         to_lm = lm or alpha * 0.5 < alpha_min
         damping_r = damping * 10.0 if lm else damping
@@ -99,7 +97,7 @@ def newton(d: tuple, load: np.ndarray, z0: np.ndarray, settings: np.ndarray) -> 
             newton_ok = _finite(dz_n)
             dz_a = dz_n if newton_ok else _lm_direction(jt, rt, damping)
             z, r, f, jac, dz = zt, rt, ft, jt, dz_a
-            slope = rt @ (jt @ dz_a)
+            slope = float(rt @ (jt @ dz_a))
             alpha, lm, damping = 1.0, not newton_ok, max(damping * 0.3, 1e-9)
             if was_finite:
                 steps += 1
@@ -113,7 +111,7 @@ def newton(d: tuple, load: np.ndarray, z0: np.ndarray, settings: np.ndarray) -> 
                 alpha = 1.0
             else:
                 alpha = 0.5 * alpha
-            slope = r @ (jac @ dz)
+            slope = float(r @ (jac @ dz))
             lm, damping = to_lm, damping_r
             if damping_r > 1e12:
                 status = _FAILED
@@ -128,7 +126,7 @@ def newton(d: tuple, load: np.ndarray, z0: np.ndarray, settings: np.ndarray) -> 
             best_z, best_r, best_f, best_jac, best_dz, best_lm = z, r, f, jac, dz, lm
         if used and free == 0 and status != _CONVERGED and best_f < f:
             z, r, f, jac, dz, lm = best_z, best_r, best_f, best_jac, best_dz, best_lm
-            slope, alpha = r @ (jac @ dz), 1.0
+            slope, alpha = float(r @ (jac @ dz)), 1.0
     if status < 0:
         status = _MAX_STEPS
     if not np.isfinite(f):

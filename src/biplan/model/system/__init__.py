@@ -41,7 +41,9 @@ class System:
     load: np.ndarray
 
     @staticmethod
-    def of(tube: Tube, force: float = 0.0, displacement: float = 0.0, control: float = 0.0) -> System:
+    def of(
+        tube: Tube, force: float = 0.0, displacement: float = 0.0, control: float = 0.0
+    ) -> System:
         """The system of a tube at a load (its readings must be :func:`is_supported`)."""
         layout = tube.layout
         if not is_supported(layout):
@@ -57,9 +59,7 @@ class System:
             dev.pitch,
             dev.beta,
             np.array([law.coefficients for law in tube.helical_laws], dtype=float),
-            np.array([law.coefficients for law in tube.circular_laws], dtype=float).reshape(
-                -1, 5
-            ),
+            np.array([law.coefficients for law in tube.circular_laws], dtype=float).reshape(-1, 5),
         )
         data = data._replace(load_reference=np.array([chainterm.reference_height(data)]))
         return System(data, np.array([force, displacement, control], dtype=float))
@@ -101,8 +101,12 @@ class System:
 
     def endpoint(self, q: np.ndarray) -> tuple[float, float, float]:
         """(u_z [mm], u_r [mm], θ [rad]) of the free end relative to q = 0 (MODEL R2)."""
-        now = _edge_observables(chainterm.edge_points(self.data, np.asarray(q, dtype=float)), self.data)
-        ref = _edge_observables(chainterm.edge_points(self.data, np.zeros(self.sizes[0])), self.data)
+        now = _edge_observables(
+            chainterm.edge_points(self.data, np.asarray(q, dtype=float)), self.data
+        )
+        ref = _edge_observables(
+            chainterm.edge_points(self.data, np.zeros(self.sizes[0])), self.data
+        )
         return now[0] - ref[0], now[1] - ref[1], now[2] - ref[2]
 
     def state(self, z: np.ndarray, jac: np.ndarray | None = None) -> Any:

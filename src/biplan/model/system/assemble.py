@@ -20,6 +20,7 @@ from numba import njit
 
 from biplan.model.system.chainterm import load_point
 from biplan.model.system.elements import connector_points, field_energy, module_rows
+from biplan.model.system.tables import SystemData
 
 __all__ = ["evaluate", "jacobian", "observe", "residual", "terms"]
 
@@ -53,7 +54,7 @@ def _add_field(
 
 @njit(cache=True)
 def terms(
-    d: tuple,  # type: ignore[type-arg]
+    d: SystemData,
     q: np.ndarray,
     lam: np.ndarray,
     lam_c: np.ndarray,
@@ -191,7 +192,7 @@ def terms(
 
 @njit(cache=True)
 def evaluate(
-    d: tuple,  # type: ignore[type-arg]
+    d: SystemData,
     z: np.ndarray,
     load: np.ndarray,
     second: bool,
@@ -243,22 +244,19 @@ def evaluate(
 
 
 @njit(cache=True)
-def residual(d: tuple, z: np.ndarray, load: np.ndarray) -> np.ndarray:  # type: ignore[type-arg]
+def residual(d: SystemData, z: np.ndarray, load: np.ndarray) -> np.ndarray:  # type: ignore[type-arg]
     """The KKT residual r(z) (module docstring)."""
     return evaluate(d, z, load, False)[0]
 
 
 @njit(cache=True)
-def jacobian(d: tuple, z: np.ndarray, load: np.ndarray) -> np.ndarray:  # type: ignore[type-arg]
+def jacobian(d: SystemData, z: np.ndarray, load: np.ndarray) -> np.ndarray:  # type: ignore[type-arg]
     """The KKT Jacobian ∂r/∂z (:func:`biplan.model.lagrangian.kkt_jacobian`)."""
     return evaluate(d, z, load, True)[1]
 
 
-
-
-
 @njit(cache=True)
-def observe(d: tuple, z: np.ndarray) -> tuple:  # type: ignore[type-arg]
+def observe(d: SystemData, z: np.ndarray) -> tuple:  # type: ignore[type-arg]
     """(z_p [mm], ∇z_p (n_q,), helical energies (N,), circular energies (Nc,), gaps (n_c,))
     at z, whatever the load (the first-order data of a state)."""
     n_q, n_g, n_c = d.sizes[0], d.sizes[1], d.sizes[2]

@@ -22,12 +22,13 @@ import numpy as np
 from numba import njit
 
 from biplan.model.system.elements import _edge, node
+from biplan.model.system.tables import SystemData
 
 __all__ = ["load_point"]
 
 
 @njit(cache=True)
-def _increment(x: np.ndarray, d: tuple, c: int, want: bool) -> tuple:  # type: ignore[type-arg]
+def _increment(x: np.ndarray, d: SystemData, c: int, want: bool) -> tuple:  # type: ignore[type-arg]
     """(α, t_z, t_s), J (3, 7), Hessians (3, 7, 7) of connector c's frame increment."""
     ref, pitch = d.ref, d.scalars[0]
     lo, up, e = d.conn_lower[c], d.conn_upper[c], d.conn_element[c]
@@ -109,7 +110,7 @@ def _top(x: np.ndarray, ref: np.ndarray, weights: np.ndarray) -> tuple:
 
 
 @njit(cache=True)
-def _dofs(d: tuple, c: int) -> np.ndarray:  # type: ignore[type-arg]
+def _dofs(d: SystemData, c: int) -> np.ndarray:  # type: ignore[type-arg]
     """Global coordinate of each of connector c's 7 local coordinates (−1: the clamp's)."""
     n = d.ref.shape[0]
     out = np.empty(7, dtype=np.int64)
@@ -122,7 +123,7 @@ def _dofs(d: tuple, c: int) -> np.ndarray:  # type: ignore[type-arg]
 
 
 @njit(cache=True)
-def _height(d: tuple, q: np.ndarray) -> float:  # type: ignore[type-arg]
+def _height(d: SystemData, q: np.ndarray) -> float:  # type: ignore[type-arg]
     """Z(q) (module docstring), value only."""
     n, nc = d.ref.shape[0], d.conn_upper.shape[0]
     theta = 0.0
@@ -141,7 +142,7 @@ def _height(d: tuple, q: np.ndarray) -> float:  # type: ignore[type-arg]
 
 @njit(cache=True)
 def load_point(
-    d: tuple,  # type: ignore[type-arg]
+    d: SystemData,
     q: np.ndarray,
     gradient: np.ndarray,
     hessian: np.ndarray,
@@ -175,7 +176,9 @@ def load_point(
                     continue
                 for j in range(7):
                     if dofs[c, j] >= 0:
-                        hessian[dofs[c, i], dofs[c, j]] += coef * (ct * hy[1, i, j] - st * hy[2, i, j])
+                        hessian[dofs[c, i], dofs[c, j]] += coef * (
+                            ct * hy[1, i, j] - st * hy[2, i, j]
+                        )
     top = np.arange(3 * n - 3, 3 * n)
     xbar, gx, hx = _top(q[3 * n - 3 : 3 * n], d.ref[n - 1], d.load_weights)
     ct, st = math.cos(theta), math.sin(theta)
@@ -229,13 +232,13 @@ def load_point(
 
 
 @njit(cache=True)
-def reference_height(d: tuple) -> float:  # type: ignore[type-arg]
+def reference_height(d: SystemData) -> float:
     """Z(0): the load point at q = 0 (depends on the geometry only)."""
     return _height(d, np.zeros(d.sizes[0]))
 
 
 @njit(cache=True)
-def edge_points(d: tuple, q: np.ndarray) -> np.ndarray:  # type: ignore[type-arg]
+def edge_points(d: SystemData, q: np.ndarray) -> np.ndarray:  # type: ignore[type-arg]
     """Global (z, s) [mm] of the free-end edge's segment ends, (S, 2, 2) (the top module's
     nodes in the frame composed up the chain; :func:`biplan.geometry.chain.end_edge_points`)."""
     n, nc = d.ref.shape[0], d.conn_upper.shape[0]

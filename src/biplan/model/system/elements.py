@@ -195,9 +195,7 @@ def _edge(
     """:func:`line_height` of element ``element`` of the module whose coordinates are
     x[offset : offset + 3]."""
     pivot = 0 if element == 0 else 6
-    return line_height(
-        x[offset], x[offset + 1 + element], ref[pivot, 0], ref[pivot, 1], z_edge, s
-    )
+    return line_height(x[offset], x[offset + 1 + element], ref[pivot, 0], ref[pivot, 1], z_edge, s)
 
 
 @njit(cache=True)

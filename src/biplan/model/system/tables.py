@@ -37,7 +37,9 @@ class SystemData(NamedTuple):
     # sizes (n_q, n_g, n_c) and scalar numbers
     sizes: np.ndarray  # (3,) int: n_q, n_g, n_c
     scalars: np.ndarray  # (7,) l, H, a, ε, c (contact compliance), τ (smooth minimum), H1
-    flags: np.ndarray  # (2,) int: contact form (0 per endpoint, 1 minimum), endpoint (0 edge, 1 seam)
+    flags: (
+        np.ndarray
+    )  # (2,) int: contact form (0 per endpoint, 1 minimum), endpoint (0 edge, 1 seam)
     # modules
     ref: np.ndarray  # (N, 7, 2) reference nodes in each module frame
     n_c: np.ndarray  # (N, 2) crease tangent
