@@ -32,6 +32,7 @@ from biplan._compile.setup import jnp
 from biplan._errors import ConfigError, ConvergenceError, check_integer, check_range
 from biplan.model.assembly import Load, Model
 from biplan.solvers import _pathkernel as pk
+from biplan.solvers import path_loop
 from biplan.solvers.control import Control
 from biplan.solvers.newton import Newton, Solution, solve_equilibrium
 from biplan.solvers.observe import CHUNK, STABILITY_TOL, Observation, observe_batch
@@ -225,30 +226,43 @@ def trace_path(
             "control.stop", control.stop, f"a value other than the start {load_parameter0:g}"
         )
 
-    size = BUFFER_QUANTUM * int(np.ceil((method.max_steps + 1) / BUFFER_QUANTUM))
-    run = pk.path_loop.compiled(model.layout, size)
-    out = run(
-        model.params,
-        jnp.asarray(first.z),
-        jnp.asarray(load_parameter0),
-        jnp.asarray(ctl),
-        jnp.asarray(float(control.stop)),
-        jnp.asarray(method.settings(weight)),
-    )
-    count = int(out.count)
-    z = np.asarray(out.z)[:count]
-    load_parameter = np.asarray(out.load_parameter)[:count]
-    tang = np.asarray(out.tangent)[:count]
-    steps = np.asarray(out.step)[:count]
-    its = np.asarray(out.iterations)[:count]
-    status = PathStatus.from_code(int(out.status))
+    system = model.system()
+    if system is not None:
+        z, load_parameter, tang, steps, its, count, cutbacks, code = path_loop.path_loop(
+            system.data,
+            first.z,
+            float(load_parameter0),
+            np.asarray(ctl, dtype=float),
+            float(control.stop),
+            method.settings(weight),
+        )
+        z, load_parameter, tang = z[:count], load_parameter[:count], tang[:count]
+        steps, its = steps[:count], its[:count]
+        obs = observe_batch(model.layout, model.params, z, _loads(ctl, load_parameter))
+    else:
+        size = BUFFER_QUANTUM * int(np.ceil((method.max_steps + 1) / BUFFER_QUANTUM))
+        out = pk.path_loop.compiled(model.layout, size)(
+            model.params,
+            jnp.asarray(first.z),
+            jnp.asarray(load_parameter0),
+            jnp.asarray(ctl),
+            jnp.asarray(float(control.stop)),
+            jnp.asarray(method.settings(weight)),
+        )
+        count, cutbacks, code = int(out.count), int(out.cutbacks), int(out.status)
+        z = np.asarray(out.z)[:count]
+        load_parameter = np.asarray(out.load_parameter)[:count]
+        tang = np.asarray(out.tangent)[:count]
+        steps = np.asarray(out.step)[:count]
+        its = np.asarray(out.iterations)[:count]
+        # observed in the path kernel from each state's corrector Jacobian
+        obs = Observation(*(np.asarray(v)[:count] for v in out.observation))
+    status = PathStatus.from_code(int(code))
     if count > 1 and not np.all(np.isfinite(z)):
         status = PathStatus.NONFINITE
 
     events: list[Event] = []
     inserted: list[tuple[int, np.ndarray, float]] = []
-    # observed in the path kernel from each state's corrector Jacobian (no second assembly)
-    obs = Observation(*(np.asarray(v)[:count] for v in out.observation))
     solid = np.flatnonzero(obs.penetration > FULL_CONTACT_PENETRATION)
     if solid.size:
         count = max(int(solid[0]), 1)
@@ -314,7 +328,7 @@ def trace_path(
 
     stats = PathStats(
         n_steps=count - 1,
-        n_cutbacks=int(out.cutbacks),
+        n_cutbacks=int(cutbacks),
         newton_iterations=int(its.sum()),
         n_events=len(events),
         smallest_step=float(steps[1:].min()) if count > 1 else float("nan"),
@@ -373,7 +387,6 @@ def _locate(
     Λ need not be monotone in the bracket near a kink of a trilinear law, so the Λ of the
     far end is no bound), or None."""
     nq = model.n_coordinates
-    corr = pk.corrector.compiled(model.layout)
     f_a = float(np.asarray(obs.min_eigenvalue)[i])  # type: ignore[attr-defined]
     lo, hi = 0.0, 1.0
     best: tuple[np.ndarray, float, float] | None = None
@@ -386,21 +399,10 @@ def _locate(
         zp = za[None, :] + alpha[:, None] * dz[None, :]
         lp = la + alpha * dl
         rho = zp @ row_z + row_l * lp
-        out = corr(
-            model.params,
-            jnp.asarray(zp),
-            jnp.asarray(lp),
-            jnp.asarray(ctl),
-            jnp.asarray(np.broadcast_to(row_z, zp.shape)),
-            jnp.asarray(np.full(CHUNK, row_l)),
-            jnp.asarray(rho),
-            jnp.asarray(method.atol),
-            jnp.asarray(method.max_iterations),
-        )
-        ok = np.asarray(out.converged)
+        zc, lc, ok = _correct(model, ctl, zp, lp, row_z, row_l, rho, method)
         if not ok.any():
             return best
-        zc, lc = np.asarray(out.z)[ok], np.asarray(out.load_parameter)[ok]
+        zc, lc = zc[ok], lc[ok]
         o = observe_batch(model.layout, model.params, zc, _loads(ctl, lc))
         a_ok = alpha[ok]
         same = np.sign(o.min_eigenvalue) == np.sign(f_a)
@@ -420,6 +422,54 @@ def _locate(
         if hi - lo < method.event_tolerance:
             break
     return best
+
+
+def _correct(
+    model: Model,
+    ctl: np.ndarray,
+    zp: np.ndarray,
+    lp: np.ndarray,
+    row_z: np.ndarray,
+    row_l: float,
+    rho: np.ndarray,
+    method: _Stepper,
+) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Correct predictors (zp, Λp) onto the path on the hyperplanes (row_z, row_l)·x = ρ:
+    (z, Λ, converged) of each."""
+    system = model.system()
+    if system is None:
+        out = pk.corrector.compiled(model.layout)(
+            model.params,
+            jnp.asarray(zp),
+            jnp.asarray(lp),
+            jnp.asarray(ctl),
+            jnp.asarray(np.broadcast_to(row_z, zp.shape)),
+            jnp.asarray(np.full(len(lp), row_l)),
+            jnp.asarray(rho),
+            jnp.asarray(method.atol),
+            jnp.asarray(method.max_iterations),
+        )
+        return np.asarray(out.z), np.asarray(out.load_parameter), np.asarray(out.converged)
+    row = np.append(row_z, row_l)
+    ctl = np.asarray(ctl, dtype=float)
+    outs = [
+        path_loop.corrector(
+            system.data,
+            zp[k],
+            float(lp[k]),
+            ctl,
+            row,
+            float(rho[k]),
+            method.atol,
+            method.max_iterations,
+        )
+        for k in range(len(lp))
+    ]
+    return (
+        np.array([o[0] for o in outs]),
+        np.array([o[1] for o in outs]),
+        np.array([o[2] for o in outs], dtype=bool),
+    )
 
 
 def _insert(

@@ -1,11 +1,20 @@
 """The compiled Newton iteration on a :class:`~biplan.model.system.System` (Numba; MODEL §11).
 
 The same globalised Newton as :func:`biplan.solvers.core.machine` (one trial point a pass):
-Armijo backtracking on the merit ½‖r‖², a Levenberg–Marquardt fallback with adaptive damping
-once the halvings are spent (or when the Newton system is singular), and the watchdog of free
-steps (Chamberlain et al. 1982). The start enters as the first trial point (merit +∞, accepted
-when finite); the Jacobian is evaluated at accepted points only. Settings arrive as one array
-built from :class:`~biplan.solvers.Newton` (:func:`settings_array`).
+Armijo backtracking on the merit ½‖R‖², a Levenberg–Marquardt fallback with adaptive damping
+once the halvings are spent (or when the Newton system is singular; with the fallback off such
+a search ends the solve, the plain damped Newton of the path corrector), and the watchdog of
+free steps (Chamberlain et al. 1982). The start enters as the first trial point (merit +∞,
+accepted when finite); the Jacobian is evaluated at accepted points only. Settings arrive as
+one array built from :class:`~biplan.solvers.Newton` (:func:`settings_array`).
+
+The system R(x) = 0 is the KKT system r(z) = 0 at a load, or, with a border row, the bordered
+system of path following (x = [z, Λ], load (c_F Λ, c_U Λ, d))::
+
+    R(x) = [r(z, Λ),  row_zᵀ z + row_Λ Λ − ρ],   ∂R/∂x = [[∂r/∂z, ∂r/∂Λ], [row_zᵀ, row_Λ]]
+
+with ∂r/∂Λ = [−c_F ∇z_p, 0, …, −d c_U] (the load enters L as (μd − F) z_p and the last row
+as d (z_p − U)).
 """
 
 from __future__ import annotations
@@ -14,6 +23,7 @@ import numpy as np
 from numba import njit
 
 from biplan.model.system.assemble import evaluate
+from biplan.model.system.chainterm import load_point
 from biplan.model.system.tables import SystemData
 from biplan.solvers.core_settings import Status
 
@@ -25,11 +35,59 @@ _FAILED = Status.LINE_SEARCH_FAILED.value
 _NONFINITE = Status.NONFINITE.value
 
 
+#: No border row: the KKT system itself.
+NO_BORDER = np.zeros(0)
+
+
 def settings_array(
-    atol: float, max_steps: int, max_backtracks: int, armijo: float, free_steps: int
+    atol: float,
+    max_steps: int,
+    max_backtracks: int,
+    armijo: float,
+    free_steps: int,
+    levenberg_marquardt: bool = True,
 ) -> np.ndarray:
     """The settings of :func:`newton` as the array it takes."""
-    return np.array([atol, max_steps, max_backtracks, armijo, free_steps], dtype=float)
+    lm = 1.0 if levenberg_marquardt else 0.0
+    return np.array([atol, max_steps, max_backtracks, armijo, free_steps, lm], dtype=float)
+
+
+@njit(cache=True)
+def system(
+    d: SystemData,
+    x: np.ndarray,
+    load: np.ndarray,
+    border: np.ndarray,
+    rho: float,
+    second: bool,
+) -> tuple[np.ndarray, np.ndarray]:
+    """(R(x), ∂R/∂x or (0, 0)): the KKT system at ``load`` when ``border`` is empty, else the
+    bordered system with ``load`` the control coefficients (c_F, c_U, d) and ``border`` the
+    row (row_z, row_Λ) (module docstring)."""
+    if border.shape[0] == 0:
+        out = evaluate(d, x, load, second)
+        return out[0], out[1]
+    n = x.shape[0] - 1
+    lam = x[n]
+    at = np.array([load[0] * lam, load[1] * lam, load[2]])
+    out = evaluate(d, x[:n], at, second)
+    res = np.empty(n + 1)
+    res[:n] = out[0]
+    res[n] = border[:n] @ x[:n] + border[n] * lam - rho
+    if not second:
+        return res, np.zeros((0, 0))
+    n_q = d.sizes[0]
+    grad_zp = out[3]
+    if at[0] == 0.0 and at[2] == 0.0 and load[0] != 0.0:  # at rest evaluate skips z_p
+        grad_zp = np.zeros(n_q)
+        load_point(d, x[:n_q], grad_zp, np.zeros((0, 0)), 0.0, False)
+    jac = np.zeros((n + 1, n + 1))
+    jac[:n, :n] = out[1]
+    for i in range(n_q):
+        jac[i, n] = -load[0] * grad_zp[i]
+    jac[n - 1, n] = -load[2] * load[1]
+    jac[n, :] = border
+    return res, jac
 
 
 @njit(cache=True)
@@ -61,14 +119,22 @@ def _lm_direction(jac: np.ndarray, r: np.ndarray, damping: float) -> np.ndarray:
 
 
 @njit(cache=True)
-def newton(d: SystemData, load: np.ndarray, z0: np.ndarray, settings: np.ndarray) -> tuple:  # type: ignore[type-arg]
-    """Solve r(z) = 0 of the system (d, load) from z0.
+def newton(
+    d: SystemData,
+    load: np.ndarray,
+    z0: np.ndarray,
+    settings: np.ndarray,
+    border: np.ndarray = NO_BORDER,
+    rho: float = 0.0,
+) -> tuple:  # type: ignore[type-arg]
+    """Solve R(z) = 0 of the system (d, load[, border, ρ]) from z0 (:func:`system`).
 
-    Returns (z, r, merit f, Jacobian at z, steps, status); the Jacobian is the one at z once a
+    Returns (z, R, merit f, Jacobian at z, steps, status); the Jacobian is the one at z once a
     pass was accepted (finite f).
     """
     atol, max_steps, max_bt, c_arm = settings[0], int(settings[1]), int(settings[2]), settings[3]
     free = int(settings[4])
+    with_lm = settings[5] > 0.5
     alpha_min = 0.5**max_bt
     max_evals = max(max_steps, 1) * (max_bt + 1)
     n = z0.shape[0]
@@ -82,7 +148,7 @@ def newton(d: SystemData, load: np.ndarray, z0: np.ndarray, settings: np.ndarray
     best_z, best_r, best_f, best_jac, best_dz, best_lm = z.copy(), r.copy(), np.inf, jac, dz, False
     while status < 0 and evals < max_evals:
         zt = z + alpha * dz
-        rt = evaluate(d, zt, load, False)[0]
+        rt = system(d, zt, load, border, rho, False)[0]
         ft = 0.5 * (rt @ rt)
         if not np.isfinite(ft):
             ft = np.inf
@@ -92,10 +158,14 @@ def newton(d: SystemData, load: np.ndarray, z0: np.ndarray, settings: np.ndarray
         damping_r = damping * 10.0 if lm else damping
         was_finite = np.isfinite(f)
         if accept:
-            jt = evaluate(d, zt, load, True)[1]
+            jt = system(d, zt, load, border, rho, True)[1]
             dz_n = _solve(jt, -rt)
             newton_ok = _finite(dz_n)
-            dz_a = dz_n if newton_ok else _lm_direction(jt, rt, damping)
+            if newton_ok or with_lm:
+                dz_a = dz_n if newton_ok else _lm_direction(jt, rt, damping)
+            else:  # a singular Newton system ends the plain damped Newton
+                dz_a = dz_n
+                status = _FAILED
             z, r, f, jac, dz = zt, rt, ft, jt, dz_a
             slope = float(rt @ (jt @ dz_a))
             alpha, lm, damping = 1.0, not newton_ok, max(damping * 0.3, 1e-9)
@@ -103,17 +173,23 @@ def newton(d: SystemData, load: np.ndarray, z0: np.ndarray, settings: np.ndarray
                 steps += 1
             if np.max(np.abs(rt)) < atol:
                 status = _CONVERGED
+            elif status == _FAILED:
+                pass
             elif steps >= max_steps:
                 status = _MAX_STEPS
         else:
-            if to_lm:
+            if to_lm and not with_lm:  # halvings spent: the damped Newton fails here
+                status = _FAILED
+            elif to_lm:
                 dz = _lm_direction(jac, r, damping_r)
                 alpha = 1.0
             else:
                 alpha = 0.5 * alpha
             slope = float(r @ (jac @ dz))
-            lm, damping = to_lm, damping_r
-            if damping_r > 1e12:
+            lm, damping = to_lm and with_lm, damping_r
+            if status == _FAILED:
+                pass
+            elif damping_r > 1e12:
                 status = _FAILED
             elif steps >= max_steps:
                 status = _MAX_STEPS

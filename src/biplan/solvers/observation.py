@@ -1,0 +1,454 @@
+"""Observation of equilibrium states on the compiled system (Numba; MODEL §9, §12).
+
+The compiled counterpart of :mod:`biplan.solvers.observe`: for packed states
+z = [q, λ, λ_∂, μ] and their loads (F [N], U [mm], d), with the tube's layout as data
+(:class:`~biplan.model.system.SystemData`), it computes what a path or trajectory records per
+step:
+
+* the end force F [N] (the applied one, or the reaction −μ under displacement control), the
+  load-point displacement z_p [mm] and the endpoint u_z, u_r [mm], θ [rad] (MODEL §9, R2);
+* the strain energy of every fold [N·mm] (helical folds, then circular ones) and the fraction
+  of each fold's length on the closed, spinodal and open branch of its law (length-weighted
+  over a connector's fields, as :func:`biplan.model.potential.phase_fractions`);
+* the stability test of MODEL §12 (main "Equilibrium Stability"): the smallest eigenvalue
+  λ_min [N/mm] of the reduced Hessian H_r = Nᵀ K N, K = ∇²_q L, N an orthonormal basis of the
+  null space of the active constraint rows, and dim N. The active set is that of
+  :mod:`biplan.analysis.stability`: every guide, the contacts with gap w_∂ < 1e-4 mm and
+  λ_∂ > 1e-6 N (every closed contact under the S1 reading ``weak_contacts_active``), and the
+  end constraint under displacement control;
+* the count of active contacts, the largest guide violation max |g| [mm] and the penetration
+  max(−w_∂, 0) [mm].
+
+K and the constraint rows are read off the state's KKT Jacobian (its top-left block K, its
+top-right columns Gᵀ, −Cᵀ and d·a, as :func:`biplan.solvers.observe.kkt_min_eigenvalue`).
+N is computed as in the JAX kernel: A (active rows) = U Σ Vᵀ, the rows of Vᵀ past the
+numerical rank (singular values ≤ 1e-9 σ_max) span the null space; here H_r is formed on
+them directly and its smallest eigenvalue taken (``numpy.linalg.eigvalsh``), which equals the
+JAX kernel's shifted-matrix eigenvalue exactly (its shift lies above every eigenvalue of H_r).
+λ_min = +∞ when no direction is left (dim N = 0: a contact-locked state).
+
+:func:`observe_state` observes one state from its Jacobian (what a Newton solve ends with),
+:func:`observe_states` a batch, assembling each Jacobian, in parallel over the states
+(``numba.prange``); :func:`observe` is the Python entry point that returns an
+:class:`~biplan.solvers.observe.Observation` of NumPy arrays.
+"""
+
+from __future__ import annotations
+
+import math
+from typing import Any
+
+import numpy as np
+from numba import njit, prange
+
+from biplan.model.system import assemble, chainterm
+from biplan.model.system.elements import connector_points
+from biplan.model.system.tables import SystemData
+
+__all__ = [
+    "ACTIVE_GAP",
+    "ACTIVE_MULTIPLIER",
+    "PARALLEL_MIN_STATES",
+    "RANK_RTOL",
+    "min_reduced_eigenvalue",
+    "observe",
+    "observe_state",
+    "observe_states",
+    "observe_states_serial",
+]
+
+#: A contact is active when its multiplier exceeds this [N] and its gap is below ACTIVE_GAP [mm]
+#: (the values of :mod:`biplan.solvers.observe`).
+ACTIVE_MULTIPLIER = 1e-6
+ACTIVE_GAP = 1e-4
+#: Relative SVD rank tolerance of the active-constraint Jacobian.
+RANK_RTOL = 1e-9
+#: :func:`observe` runs in parallel from this many states per thread of Numba's pool.
+PARALLEL_MIN_STATES = 8
+
+
+@njit(cache=True)
+def min_reduced_eigenvalue(k: np.ndarray, a: np.ndarray, active: np.ndarray) -> tuple[float, int]:
+    """(λ_min(Nᵀ K N) [N/mm], dim N) for N the null space of the active rows of ``a``.
+
+    Parameters
+    ----------
+    k : ndarray (n, n)
+        Lagrangian Hessian K = ∇²_q L [N/mm] (symmetrised here).
+    a : ndarray (m, n)
+        Constraint Jacobian, all candidate rows (dimensionless).
+    active : ndarray (m,) of bool
+        Which rows are active.
+
+    Returns
+    -------
+    tuple of (float, int)
+        The smallest eigenvalue of the reduced Hessian (+∞ when dim N = 0) and dim N.
+    """
+    n = k.shape[0]
+    m = 0
+    for i in range(active.shape[0]):
+        if active[i]:
+            m += 1
+    rank = 0
+    if m > 0:
+        rows = np.empty((m, n))
+        j = 0
+        for i in range(active.shape[0]):
+            if active[i]:
+                rows[j] = a[i]
+                j += 1
+        _, s, vt = np.linalg.svd(rows, True)
+        top = max(s.max(), 1e-300)
+        for v in s:
+            if v > RANK_RTOL * top:
+                rank += 1
+    else:
+        vt = np.eye(n)
+    dof = n - rank
+    if dof == 0:
+        return math.inf, 0
+    basis = np.ascontiguousarray(vt[rank:].T)  # (n, dof)
+    sym = 0.5 * (k + k.T)
+    reduced = basis.T @ (sym @ basis)
+    reduced = 0.5 * (reduced + reduced.T)
+    return np.linalg.eigvalsh(reduced)[0], dof
+
+
+@njit(cache=True)
+def _segment_fractions(w0: float, wl: float, law: np.ndarray, out: np.ndarray) -> None:
+    """Adds the fractions of a linear field from w0 to wL [mm] on the closed, spinodal and open
+    branch of law = (k1, k2, k3, w1, w2) to ``out`` (3,)
+    (:func:`biplan.laws._kernels.phase_fractions`)."""
+    w1, w2 = law[3], law[4]
+    lo, hi = min(w0, wl), max(w0, wl)
+    width = hi - lo
+    if width < 1e-14:  # the branch of the midpoint
+        mid = 0.5 * (w0 + wl)
+        out[0 if mid < w1 else (1 if mid < w2 else 2)] += 1.0
+        return
+    b2 = min(max(w2, lo), hi)
+    b1 = min(min(max(w1, lo), hi), b2)
+    out[0] += (b1 - lo) / width
+    out[1] += (b2 - b1) / width
+    out[2] += (hi - b2) / width
+
+
+@njit(cache=True)
+def _circular_fractions(d: SystemData, q: np.ndarray, out: np.ndarray) -> None:
+    """Fills ``out`` (Nc, 3) with each connector's length-weighted branch fractions."""
+    n, nc = d.ref.shape[0], d.conn_upper.shape[0]
+    pitch = d.scalars[0]
+    x = np.zeros(7)
+    part = np.zeros(3)
+    for c in range(nc):
+        lo, up = d.conn_lower[c], d.conn_upper[c]
+        for k in range(3):
+            x[k] = 0.0 if lo < 0 else q[3 * lo + k]
+            x[3 + k] = q[3 * up + k]
+        x[6] = q[3 * n + c]
+        first, last = d.conn_first_point[c], d.conn_first_point[c + 1]
+        w, _, _ = connector_points(
+            x,
+            d.ref[max(lo, 0)],
+            d.ref[up],
+            pitch,
+            first,
+            last,
+            d.point_s,
+            d.point_upper_element,
+            d.point_lower_element,
+            d.point_rigid,
+            d.point_height,
+            d.point_flip,
+        )
+        total = 0.0
+        for f in range(d.conn_first_field[c], d.conn_first_field[c + 1]):
+            i0, i1 = d.field_start[f], d.field_end[f]
+            length = d.point_s[i1] - d.point_s[i0]
+            part[:] = 0.0
+            _segment_fractions(w[i0 - first], w[i1 - first], d.circular[c], part)
+            for j in range(3):
+                out[c, j] += length * part[j]
+            total += length
+        for j in range(3):
+            out[c, j] /= total
+
+
+@njit(cache=True)
+def _edge_stats(segs: np.ndarray, seam: bool) -> tuple[float, float, float]:
+    """Mean z, mean s [mm] and tilt θ [rad] of the free-end edge from its segment ends
+    (S, 2, 2) (:func:`biplan.model.system._edge_observables`)."""
+    if seam:
+        z0, s0 = segs[0, 0, 0], segs[0, 0, 1]
+        z1, s1 = segs[0, 1, 0], segs[0, 1, 1]
+        return z0, s0, math.atan(-(z1 - z0) / (s1 - s0))
+    total = zm = sm = ss = zs = 0.0
+    for j in range(segs.shape[0]):
+        z0, s0 = segs[j, 0, 0], segs[j, 0, 1]
+        z1, s1 = segs[j, 1, 0], segs[j, 1, 1]
+        length = math.hypot(z1 - z0, s1 - s0)
+        total += length
+        zm += length * (z0 + z1) / 2
+        sm += length * (s0 + s1) / 2
+        ss += length * (s0 * s0 + s0 * s1 + s1 * s1) / 3
+        zs += length * (2 * z0 * s0 + z0 * s1 + z1 * s0 + 2 * z1 * s1) / 6
+    zm /= total
+    sm /= total
+    ss = ss / total - sm * sm
+    zs = zs / total - zm * sm
+    return zm, sm, math.atan(-zs / ss)
+
+
+@njit(cache=True)
+def _observation(
+    d: SystemData,
+    z: np.ndarray,
+    load: np.ndarray,
+    jac: np.ndarray,
+    guides: np.ndarray,
+    gaps: np.ndarray,
+    e_hel: np.ndarray,
+    e_circ: np.ndarray,
+    zp: float,
+    weak_contacts: bool,
+) -> tuple:
+    """:func:`observe_state` from the state's first-order terms (guides, gaps, energies, z_p)."""
+    n_q, n_g, n_c = d.sizes[0], d.sizes[1], d.sizes[2]
+    n, nc = d.ref.shape[0], d.conn_upper.shape[0]
+    n_z = n_q + n_g + n_c + 1
+    q = z[:n_q]
+    control = load[2] > 0.5
+    # active rows [G; C; d·a] (C = −(the contact columns)ᵀ) and the active set
+    a = np.zeros((n_g + n_c + 1, n_q))
+    active = np.zeros(n_g + n_c + 1, dtype=np.bool_)
+    n_active = 0
+    for i in range(n_q):
+        for r in range(n_g):
+            a[r, i] = jac[i, n_q + r]
+        for r in range(n_c):
+            a[n_g + r, i] = -jac[i, n_q + n_g + r]
+        a[n_g + n_c, i] = jac[i, n_z - 1]
+    for r in range(n_g):
+        active[r] = True
+    for r in range(n_c):
+        closed = gaps[r] < ACTIVE_GAP
+        on = closed if weak_contacts else closed and z[n_q + n_g + r] > ACTIVE_MULTIPLIER
+        active[n_g + r] = on
+        if on:
+            n_active += 1
+    active[n_g + n_c] = control
+    lam_min, dof = min_reduced_eigenvalue(np.ascontiguousarray(jac[:n_q, :n_q]), a, active)
+    # endpoint relative to q = 0
+    seam = d.flags[1] == 1
+    now = _edge_stats(chainterm.edge_points(d, q), seam)
+    ref = _edge_stats(chainterm.edge_points(d, np.zeros(n_q)), seam)
+    # energies and branch fractions, helical folds then circular
+    fold_energy = np.empty(n + nc)
+    fold_energy[:n] = e_hel
+    fold_energy[n:] = e_circ
+    fractions = np.zeros((n + nc, 3))
+    for i in range(n):  # helical boundary elongations (w0, wa) are the module's gaps
+        _segment_fractions(gaps[2 * i], gaps[2 * i + 1], d.helical[i], fractions[i])
+    if nc:
+        _circular_fractions(d, q, fractions[n:])
+    return (
+        -z[n_z - 1] if control else load[0],
+        zp,
+        now[0] - ref[0],
+        now[1] - ref[1],
+        now[2] - ref[2],
+        e_hel.sum() + e_circ.sum(),
+        fold_energy,
+        fractions,
+        lam_min,
+        dof,
+        n_active,
+        np.abs(guides).max(),
+        max(-gaps.min(), 0.0),
+    )
+
+
+@njit(cache=True)
+def observe_state(
+    d: SystemData, z: np.ndarray, load: np.ndarray, jac: np.ndarray, weak_contacts: bool
+) -> tuple:
+    """The observables of one state z from its KKT Jacobian (module docstring).
+
+    Parameters
+    ----------
+    d : SystemData
+        The tube as arrays.
+    z : ndarray (n_z,)
+        Packed state [q, λ, λ_∂, μ].
+    load : ndarray (3,)
+        (F [N], U [mm], d): end force, prescribed displacement, 1.0 under displacement control.
+    jac : ndarray (n_z, n_z)
+        The KKT Jacobian ∂r/∂z at (z, load) (:func:`biplan.model.system.assemble.evaluate`).
+    weak_contacts : bool
+        Count closed contacts as active whatever their multiplier (S1).
+
+    Returns
+    -------
+    tuple
+        The fields of :class:`~biplan.solvers.observe.Observation`: force [N], displacement
+        z_p [mm], u_z [mm], u_r [mm], θ [rad], energy [N·mm], fold energies (N + Nc,)
+        [N·mm], phase fractions (N + Nc, 3), λ_min [N/mm] (+∞ when dim N = 0), dim N,
+        active contacts, max |g| [mm], penetration [mm].
+    """
+    n_q, n_g, n_c = d.sizes[0], d.sizes[1], d.sizes[2]
+    q = z[:n_q]
+    t = assemble.terms(d, q, z[n_q : n_q + n_g], z[n_q + n_g : n_q + n_g + n_c], False)
+    grad = np.zeros(n_q)
+    zp = chainterm.load_point(d, q, grad, np.zeros((0, 0)), 0.0, False) - d.load_reference[0]
+    return _observation(d, z, load, jac, t[2], t[3], t[6], t[7], zp, weak_contacts)
+
+
+@njit(cache=True)
+def _observe_one(d: SystemData, z: np.ndarray, load: np.ndarray, weak_contacts: bool) -> tuple:
+    """:func:`observe_state` of z with its Jacobian assembled here."""
+    _, jac, zp, _, t = assemble.evaluate(d, z, load, True)
+    if load[0] == 0.0 and load[2] == 0.0:  # at rest, evaluate skips the load point
+        n_q = d.sizes[0]
+        grad = np.zeros(n_q)
+        zp = chainterm.load_point(d, z[:n_q], grad, np.zeros((0, 0)), 0.0, False)
+        zp -= d.load_reference[0]
+    return _observation(d, z, load, jac, t[2], t[3], t[6], t[7], zp, weak_contacts)
+
+
+@njit(cache=True)
+def _allocate(k: int, n_f: int) -> tuple:
+    """The output arrays of :func:`observe_states` for k states of n_f folds."""
+    return (
+        np.empty(k),
+        np.empty(k),
+        np.empty(k),
+        np.empty(k),
+        np.empty(k),
+        np.empty(k),
+        np.empty((k, n_f)),
+        np.empty((k, n_f, 3)),
+        np.empty(k),
+        np.empty(k, dtype=np.int64),
+        np.empty(k, dtype=np.int64),
+        np.empty(k),
+        np.empty(k),
+    )
+
+
+@njit(cache=True)
+def _store(out: tuple, i: int, o: tuple) -> None:
+    """Writes one state's observation ``o`` into row i of the outputs ``out``."""
+    out[0][i], out[1][i], out[2][i], out[3][i], out[4][i] = o[0], o[1], o[2], o[3], o[4]
+    out[5][i] = o[5]
+    out[6][i] = o[6]
+    out[7][i] = o[7]
+    out[8][i], out[9][i], out[10][i], out[11][i], out[12][i] = o[8], o[9], o[10], o[11], o[12]
+
+
+@njit(cache=True, parallel=True)
+def observe_states(d: SystemData, zs: np.ndarray, loads: np.ndarray, weak_contacts: bool) -> tuple:
+    """:func:`observe_state` of k states, each with its Jacobian assembled here, in parallel
+    over the states (``numba.prange``).
+
+    Parameters
+    ----------
+    d : SystemData
+        The tube as arrays.
+    zs : ndarray (k, n_z)
+        Packed states [q, λ, λ_∂, μ].
+    loads : ndarray (k, 3)
+        (F [N], U [mm], d) of each state.
+    weak_contacts : bool
+        Count closed contacts as active whatever their multiplier (S1).
+
+    Returns
+    -------
+    tuple
+        The fields of :func:`observe_state` as arrays with leading axis k (fold energies
+        (k, N + Nc) [N·mm], phase fractions (k, N + Nc, 3); dim N and the active contacts
+        int64).
+    """
+    k = zs.shape[0]
+    out = _allocate(k, d.ref.shape[0] + d.conn_upper.shape[0])
+    for i in prange(k):
+        o = _observe_one(d, zs[i], loads[i], weak_contacts)
+        _store(out, i, o)
+    return out
+
+
+@njit(cache=True)
+def observe_states_serial(
+    d: SystemData, zs: np.ndarray, loads: np.ndarray, weak_contacts: bool
+) -> tuple:
+    """:func:`observe_states` in one thread (no start-up or join of the thread pool: faster
+    for a few states, or where the cores are busy)."""
+    k = zs.shape[0]
+    out = _allocate(k, d.ref.shape[0] + d.conn_upper.shape[0])
+    for i in range(k):
+        _store(out, i, _observe_one(d, zs[i], loads[i], weak_contacts))
+    return out
+
+
+def observe(
+    system_or_data: Any,
+    zs: np.ndarray,
+    loads: Any = None,
+    weak_contacts: bool | None = None,
+    parallel: bool | None = None,
+) -> Any:
+    """Observe states on the compiled system (module docstring).
+
+    Parameters
+    ----------
+    system_or_data : Model, System or SystemData
+        The tube: a :class:`~biplan.Model` (its :meth:`~biplan.Model.system`), its System or
+        the System's data; a System's own load is ignored.
+    zs : array_like (k, n_z) or (n_z,)
+        Packed states [q, λ, λ_∂, μ].
+    loads : array_like (k, 3) or (3,), or Load, optional
+        (F [N], U [mm], d) of each state, or one load for all; a
+        :class:`~biplan.model.params.Load` of scalars or (k,) arrays is accepted too.
+        ``None``: at rest, (0, 0, 0).
+    weak_contacts : bool, optional
+        Count closed contacts as active whatever their multiplier (S1
+        ``weak_contacts_active``). Default: a Model's own option; for a System or SystemData,
+        which do not carry it, ``False`` (the default reading).
+    parallel : bool, optional
+        Run :func:`observe_states` (parallel over the states) or
+        :func:`observe_states_serial`; default: parallel from :data:`PARALLEL_MIN_STATES`
+        states per thread of Numba's pool.
+
+    Returns
+    -------
+    Observation
+        :class:`biplan.solvers.observe.Observation` of NumPy arrays with leading axis k.
+    """
+    import numba
+
+    from biplan.solvers.observe import Observation
+
+    source = system_or_data
+    if hasattr(source, "layout") and callable(getattr(source, "system", None)):  # a Model
+        if weak_contacts is None:
+            weak_contacts = source.options.weak_contacts_active
+        source = source.system()
+        if source is None:
+            raise ValueError("the model's chain readings have no compiled system")
+    d: SystemData = getattr(source, "data", source)
+    zs = np.ascontiguousarray(np.atleast_2d(np.asarray(zs, dtype=float)))
+    k = zs.shape[0]
+    if k == 0:
+        raise ValueError("no states to observe")
+    if loads is None:
+        table = np.zeros((k, 3))
+    elif isinstance(loads, tuple):  # a Load of scalars or (k,) arrays
+        table = np.stack([np.broadcast_to(np.asarray(v, float), (k,)) for v in loads], axis=1)
+    else:
+        table = np.broadcast_to(np.asarray(loads, dtype=float), (k, 3))
+    table = np.ascontiguousarray(table)
+    threads = numba.get_num_threads()
+    if parallel is None:
+        parallel = threads > 1 and k >= PARALLEL_MIN_STATES * threads
+    kernel = observe_states if parallel else observe_states_serial
+    return Observation(*kernel(d, zs, table, bool(weak_contacts)))
