@@ -12,7 +12,7 @@ import pytest
 import biplan
 from biplan.model.params import Load
 from biplan.solvers import observation
-from biplan.solvers.observe import Observation, observe_batch
+from biplan.solvers.observe import Observation, kkt_min_eigenvalue, observe_batch
 
 #: Displacements [mm] of the semi-bistable path (warm-started in turn from the reference).
 PATH = (0.5, 1.0, 1.5, 2.0, 2.5, 3.0, 3.5, 4.0, 4.5, 5.0)
@@ -132,5 +132,11 @@ def test_loads_and_weak_contacts(model6, semi_states):
     weak = observation.observe(system, zs, rows, weak_contacts=True)
     assert np.all(weak.n_active_contacts >= strong.n_active_contacts)
     assert np.all(weak.dof <= strong.dof)
+    for z, load, lam in zip(zs, rows, weak.min_eigenvalue, strict=True):  # the JAX test
+        system = model6.system(Load(*load))
+        jac = system.jacobian(z)
+        gaps = system.state(z, jac).gaps
+        ref = float(kkt_min_eigenvalue(model6.layout, z, jac, gaps, Load(*load).for_kernel(), True))
+        assert lam == ref or abs(lam - ref) <= 1e-8 * max(1.0, abs(ref))
     with pytest.raises(ValueError):
         observation.observe(system, np.zeros((0, model6.n_unknowns)))

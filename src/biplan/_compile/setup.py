@@ -45,11 +45,12 @@ top-level ``jit``. The scalar Newton loop, which a displacement sweep calls hund
 
 from __future__ import annotations
 
+import importlib
 import os
 from collections.abc import Callable
 from pathlib import Path
-
-import jax
+from types import ModuleType
+from typing import Any
 
 _ON = {"on", "1", "true"}
 #: Environment variables by which a user sets the BLAS threads themselves (then left alone).
@@ -124,6 +125,8 @@ def configure() -> None:
     if _CONFIGURED:
         return
     _CONFIGURED = True
+    import jax
+
     flags = os.environ.get("XLA_FLAGS", "")
     wanted = ["--xla_cpu_experimental_ynn_fusion_type="]
     if os.environ.get("BIPLAN_EIGEN_THREADS", "").lower() not in _ON:
@@ -154,9 +157,27 @@ def configure() -> None:
         CACHE_DIR = None
 
 
-configure()
+class _Lazy:
+    """A module imported, and :func:`configure` applied, on first attribute access: biplan's
+    geometry, laws and compiled (Numba) core import ``jax``/``jnp`` from here without
+    importing JAX, so a process that never evaluates a JAX kernel never starts JAX nor
+    changes its settings."""
 
-import jax.numpy as jnp  # noqa: E402  (after configure: float64 arrays)
+    def __init__(self, name: str) -> None:
+        self._name = name
+        self._module: ModuleType | None = None
+
+    def __getattr__(self, attr: str) -> Any:
+        module = self.__dict__.get("_module")
+        if module is None:
+            configure()
+            module = importlib.import_module(self.__dict__["_name"])
+            self.__dict__["_module"] = module
+        return getattr(module, attr)
+
+
+jax: Any = _Lazy("jax")
+jnp: Any = _Lazy("jax.numpy")
 
 __all__ = [
     "CACHE_DIR",

@@ -22,7 +22,7 @@ autodiff of L is the test oracle, :mod:`biplan.model.oracle`). Every function he
 
 from __future__ import annotations
 
-from typing import Any, NamedTuple
+from typing import Any
 
 from biplan._compile import linalg
 from biplan._compile.setup import jax, jnp
@@ -30,7 +30,7 @@ from biplan.geometry import chain
 from biplan.geometry.layout import TubeLayout
 from biplan.model import elements
 from biplan.model.elements.reduced import full_coordinates, n_reduced, reduced_terms
-from biplan.model.params import AT_REST, Load, ModelParams
+from biplan.model.params import AT_REST, Load, ModelParams, StateData
 from biplan.options import ContactForm
 
 __all__ = [
@@ -199,19 +199,6 @@ def unloaded_terms(layout: TubeLayout, p: ModelParams, q: Array) -> elements.Loc
     Jacobians ∂g/∂q, ∂w_∂/∂q."""
     _, ng, nc = _sizes(layout)
     return elements.local_terms(layout, p, q, jnp.zeros(ng), jnp.zeros(nc))
-
-
-class StateData(NamedTuple):
-    """Post-processing quantities of one state, computed by a single kernel."""
-
-    energy: Array
-    helical_energy: Array
-    circular_energy: Array
-    load_displacement: Array
-    endpoint: chain.Endpoint
-    lagrangian_hessian: Array
-    constraint_jacobian: Array  # rows [g; w_∂; z_p]
-    gaps: Array
 
 
 def _state(

@@ -16,7 +16,7 @@ from biplan._compile.setup import jnp
 from biplan._errors import check_finite, check_range
 from biplan.geometry import chain
 
-__all__ = ["AT_REST", "Load", "ModelParams"]
+__all__ = ["AT_REST", "Load", "ModelParams", "StateData"]
 
 Array = Any
 
@@ -95,3 +95,16 @@ class Load(NamedTuple):
 
 #: Zero end force under force control: the load of a tube at rest (state searches).
 AT_REST = Load(0.0, 0.0, 0.0)
+
+
+class StateData(NamedTuple):
+    """Post-processing quantities of one state, computed by a single kernel."""
+
+    energy: Array
+    helical_energy: Array
+    circular_energy: Array
+    load_displacement: Array
+    endpoint: chain.Endpoint
+    lagrangian_hessian: Array
+    constraint_jacobian: Array  # rows [g; w_∂; z_p]
+    gaps: Array

@@ -32,7 +32,7 @@ from biplan._compile.setup import jnp
 from biplan._errors import ConfigError, ConvergenceError, check_integer, check_range
 from biplan.model.assembly import Load, Model
 from biplan.solvers import _pathkernel as pk
-from biplan.solvers import path_loop
+from biplan.solvers import observation, path_loop
 from biplan.solvers.control import Control
 from biplan.solvers.newton import Newton, Solution, solve_equilibrium
 from biplan.solvers.observe import CHUNK, STABILITY_TOL, Observation, observe_batch
@@ -238,7 +238,7 @@ def trace_path(
         )
         z, load_parameter, tang = z[:count], load_parameter[:count], tang[:count]
         steps, its = steps[:count], its[:count]
-        obs = observe_batch(model.layout, model.params, z, _loads(ctl, load_parameter))
+        obs = observe_states(model, z, ctl, load_parameter)
     else:
         size = BUFFER_QUANTUM * int(np.ceil((method.max_steps + 1) / BUFFER_QUANTUM))
         out = pk.path_loop.compiled(model.layout, size)(
@@ -310,7 +310,7 @@ def trace_path(
         z, load_parameter, tang, steps, its, flags = _insert(
             z, load_parameter, tang, steps, its, inserted
         )
-        obs = observe_batch(model.layout, model.params, z, _loads(ctl, load_parameter))
+        obs = observe_states(model, z, ctl, load_parameter)
         idx = np.flatnonzero(flags)
         events = [
             Event(
@@ -359,6 +359,18 @@ def _loads(ctl: np.ndarray, load_parameter: np.ndarray) -> Load:
     )
 
 
+def observe_states(
+    model: Model, z: np.ndarray, ctl: np.ndarray, load_parameter: np.ndarray
+) -> Observation:
+    """The observation of path states z (k, n_z) at Λ (k,): compiled where the model has a
+    system (:mod:`biplan.solvers.observation`), else the JAX kernel."""
+    if model.system() is None:
+        return observe_batch(model.layout, model.params, z, _loads(ctl, load_parameter))
+    lam = np.asarray(load_parameter, dtype=float)
+    loads = np.stack([ctl[0] * lam, ctl[1] * lam, np.full_like(lam, ctl[2])], axis=1)
+    return observation.observe(model, z, loads)
+
+
 def _sign_changes(lam_min: np.ndarray) -> list[int]:
     s = np.where(
         np.isfinite(lam_min), np.sign(np.where(np.abs(lam_min) < STABILITY_TOL, 0, lam_min)), 1
@@ -403,7 +415,7 @@ def _locate(
         if not ok.any():
             return best
         zc, lc = zc[ok], lc[ok]
-        o = observe_batch(model.layout, model.params, zc, _loads(ctl, lc))
+        o = observe_states(model, zc, ctl, lc)
         a_ok = alpha[ok]
         same = np.sign(o.min_eigenvalue) == np.sign(f_a)
         # bracket: last point with the start's sign, first with the other
@@ -450,25 +462,15 @@ def _correct(
             jnp.asarray(method.max_iterations),
         )
         return np.asarray(out.z), np.asarray(out.load_parameter), np.asarray(out.converged)
-    row = np.append(row_z, row_l)
-    ctl = np.asarray(ctl, dtype=float)
-    outs = [
-        path_loop.corrector(
-            system.data,
-            zp[k],
-            float(lp[k]),
-            ctl,
-            row,
-            float(rho[k]),
-            method.atol,
-            method.max_iterations,
-        )
-        for k in range(len(lp))
-    ]
-    return (
-        np.array([o[0] for o in outs]),
-        np.array([o[1] for o in outs]),
-        np.array([o[2] for o in outs], dtype=bool),
+    return path_loop.correct_batch(
+        system.data,
+        np.ascontiguousarray(zp),
+        np.asarray(lp, dtype=float),
+        np.asarray(ctl, dtype=float),
+        np.append(row_z, row_l),
+        np.asarray(rho, dtype=float),
+        method.atol,
+        method.max_iterations,
     )
 
 

@@ -36,7 +36,7 @@ JAX kernel's shifted-matrix eigenvalue exactly (its shift lies above every eigen
 from __future__ import annotations
 
 import math
-from typing import Any
+from typing import Any, NamedTuple
 
 import numpy as np
 from numba import njit, prange
@@ -65,6 +65,24 @@ ACTIVE_GAP = 1e-4
 RANK_RTOL = 1e-9
 #: :func:`observe` runs in parallel from this many states per thread of Numba's pool.
 PARALLEL_MIN_STATES = 8
+
+
+class Observation(NamedTuple):
+    """Observables of a batch of states (leading axis: state)."""
+
+    force: np.ndarray  # [N]
+    displacement: np.ndarray  # load-point z_p [mm]
+    u_z: np.ndarray
+    u_r: np.ndarray
+    theta: np.ndarray
+    energy: np.ndarray  # Π [N·mm]
+    fold_energy: np.ndarray  # (n_folds,) helical then circular [N·mm]
+    phase_fraction: np.ndarray  # (n_folds, 3): closed, spinodal, open
+    min_eigenvalue: np.ndarray  # +inf when contact-locked
+    dof: np.ndarray  # dimension of the admissible perturbation space
+    n_active_contacts: np.ndarray
+    constraint_residual: np.ndarray  # max |g| [mm]
+    penetration: np.ndarray  # max(−w_∂, 0) [mm]: how far a contact closes past flat
 
 
 @njit(cache=True)
@@ -425,8 +443,6 @@ def observe(
         :class:`biplan.solvers.observe.Observation` of NumPy arrays with leading axis k.
     """
     import numba
-
-    from biplan.solvers.observe import Observation
 
     source = system_or_data
     if hasattr(source, "layout") and callable(getattr(source, "system", None)):  # a Model

@@ -26,7 +26,7 @@ NumPy reference of the same test; the test-suite checks that both agree.
 
 from __future__ import annotations
 
-from typing import Any, NamedTuple
+from typing import Any
 
 import numpy as np
 
@@ -43,6 +43,7 @@ from biplan.model.lagrangian import (
 )
 from biplan.model.params import AT_REST, Load, ModelParams
 from biplan.model.potential import guide_values, phase_fractions
+from biplan.solvers.observation import Observation
 
 __all__ = [
     "ACTIVE_GAP",
@@ -69,24 +70,6 @@ RANK_RTOL = 1e-9
 STABILITY_TOL = 1e-8
 #: States are observed in chunks of this many (one compiled shape).
 CHUNK = 16
-
-
-class Observation(NamedTuple):
-    """Observables of a batch of states (leading axis: state)."""
-
-    force: Array  # [N]
-    displacement: Array  # load-point z_p [mm]
-    u_z: Array
-    u_r: Array
-    theta: Array
-    energy: Array  # Π [N·mm]
-    fold_energy: Array  # (n_folds,) helical then circular [N·mm]
-    phase_fraction: Array  # (n_folds, 3): closed, spinodal, open
-    min_eigenvalue: Array  # +inf when contact-locked
-    dof: Array  # dimension of the admissible perturbation space
-    n_active_contacts: Array
-    constraint_residual: Array  # max |g| [mm]
-    penetration: Array  # max(−w_∂, 0) [mm]: how far a contact closes past flat
 
 
 def min_reduced_eigenvalue(k: Array, a: Array, active: Array) -> tuple[Array, Array]:

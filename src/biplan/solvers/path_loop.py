@@ -19,13 +19,22 @@ whole failed cycle.
 from __future__ import annotations
 
 import numpy as np
-from numba import njit
+from numba import njit, prange
 
 from biplan.model.system.tables import SystemData
 from biplan.solvers.core_settings import Status
 from biplan.solvers.iteration import newton
 
-__all__ = ["COMPLETED", "LIMIT_POINT", "MAX_STEPS", "RETURNED", "STALLED", "corrector", "path_loop"]
+__all__ = [
+    "COMPLETED",
+    "LIMIT_POINT",
+    "MAX_STEPS",
+    "RETURNED",
+    "STALLED",
+    "correct_batch",
+    "corrector",
+    "path_loop",
+]
 
 #: Codes of the loop status (see ``PathStatus``).
 RUNNING, COMPLETED, MAX_STEPS, STALLED = -1, 0, 1, 2
@@ -68,6 +77,29 @@ def corrector(
     )
 
 
+@njit(cache=True, parallel=True)
+def correct_batch(
+    d: SystemData,
+    zp: np.ndarray,
+    lp: np.ndarray,
+    ctl: np.ndarray,
+    row: np.ndarray,
+    rho: np.ndarray,
+    atol: float,
+    max_iterations: int,
+) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """:func:`corrector` of k predictors (zp (k, n), Λp (k,)) on the hyperplanes row·x = ρ_k,
+    in parallel: (z (k, n), Λ (k,), converged (k,))."""
+    k, n = zp.shape
+    z = np.zeros((k, n))
+    lam = np.zeros(k)
+    ok = np.zeros(k, dtype=np.bool_)
+    for i in prange(k):
+        out = corrector(d, zp[i], lp[i], ctl, row, rho[i], atol, max_iterations)
+        z[i], lam[i], ok[i] = out[0], out[1], out[2]
+    return z, lam, ok
+
+
 @njit(cache=True)
 def tangent(
     jac: np.ndarray, r_load: np.ndarray, weights: np.ndarray, w_lam: float, previous: np.ndarray
@@ -83,7 +115,7 @@ def tangent(
     rhs[n] = 1.0
     try:
         t = np.linalg.solve(a, rhs)
-    except Exception:  # noqa: BLE001 - singular bordered matrix
+    except Exception:  # singular bordered matrix
         return np.full(n + 1, np.nan)
     norm = np.sqrt(np.sum(weights * t[:n] ** 2) + (w_lam * t[n]) ** 2)
     return t / norm

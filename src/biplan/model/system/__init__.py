@@ -113,7 +113,7 @@ class System:
         """The :class:`~biplan.model.lagrangian.StateData` at z (K, G and C taken from the KKT
         Jacobian ``jac`` at z when given, e.g. the one a Newton solve ends with)."""
         from biplan.geometry.chain import Endpoint
-        from biplan.model.lagrangian import StateData
+        from biplan.model.params import StateData
 
         z = np.asarray(z, dtype=float)
         n_q, n_g, n_c = self.sizes
