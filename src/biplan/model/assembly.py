@@ -159,18 +159,32 @@ class Model:
         return self.tube.options
 
     def system(self, load: Load | None = None) -> System | None:
-        """The compiled :class:`~biplan.model.system.System` of this model at ``load``
-        (default: at rest), or None where its chain readings are not covered
+        """The compiled :class:`~biplan.model.system.System` of this model's parameters
+        (``self.params``: geometry, laws, contact numbers, bias) at ``load`` (default: at
+        rest), or None where its chain readings are not covered
         (:func:`~biplan.model.system.is_supported`)."""
         if not is_supported(self.layout):
             return None
-        base = self.__dict__.get("_system")
-        if base is None:
-            base = System.of(self.tube)
-            kappa = float(self.params.bias_stiffness)
+        cached = self.__dict__.get("_system")
+        if cached is None or cached[0] is not self.params:  # a copy with other parameters
+            p = self.params
+            base = System.of_numbers(
+                self.layout,
+                float(p.geometry.radius),
+                float(p.geometry.pitch),
+                float(p.geometry.beta),
+                np.asarray(p.helical, dtype=float),
+                np.asarray(p.circular, dtype=float),
+            )
+            base = base.with_contact(
+                float(p.smoothing), float(p.compliance), float(p.smooth_min_width)
+            )
+            kappa = float(p.bias_stiffness)
             if kappa:
-                base = base.with_bias(np.asarray(self.params.bias_anchor), kappa)
-            self.__dict__["_system"] = base
+                base = base.with_bias(np.asarray(p.bias_anchor), kappa)
+            cached = (p, base)
+            self.__dict__["_system"] = cached
+        base = cached[1]
         if load is None:
             return base
         return base.at(
@@ -192,7 +206,6 @@ class Model:
         if kappa < 0:
             raise ConfigError("stiffness", kappa, ">= 0")
         out = copy.copy(self)
-        out.__dict__.pop("_system", None)
         out.params = self.params._replace(
             bias_anchor=jnp.asarray(anchor), bias_stiffness=jnp.asarray(kappa)
         )

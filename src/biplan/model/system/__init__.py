@@ -11,12 +11,15 @@ autodiff oracle (:mod:`biplan.model.oracle`).
 
 from __future__ import annotations
 
+import sys
 from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
 
+from biplan._compile import numba_cache  # first: the kernels' cache locator
 from biplan._errors import ConfigError
+from biplan.geometry.layout import TubeLayout
 from biplan.model.system import assemble, chainterm
 from biplan.model.system.tables import SystemData, is_supported, system_data
 from biplan.model.tube import Tube
@@ -45,24 +48,44 @@ class System:
         tube: Tube, force: float = 0.0, displacement: float = 0.0, control: float = 0.0
     ) -> System:
         """The system of a tube at a load (its readings must be :func:`is_supported`)."""
-        layout = tube.layout
+        dev = tube.development
+        return System.of_numbers(
+            tube.layout,
+            dev.radius,
+            dev.pitch,
+            dev.beta,
+            np.array([law.coefficients for law in tube.helical_laws], dtype=float),
+            np.array([law.coefficients for law in tube.circular_laws], dtype=float).reshape(-1, 5),
+        ).at(force, displacement, control)
+
+    @staticmethod
+    def of_numbers(
+        layout: TubeLayout,
+        radius: float,
+        pitch: float,
+        beta: float,
+        helical: np.ndarray,
+        circular: np.ndarray,
+    ) -> System:
+        """The system at rest of a layout with R, l [mm], β [rad] and the law rows (k1, k2, k3,
+        w1, w2) of every helical (N, 5) and circular (Nc, 5) fold."""
         if not is_supported(layout):
             raise ConfigError(
                 "options.chain_offset/chain_attachment",
                 f"{layout.options.chain_offset.value}/{layout.options.chain_attachment.value}",
                 "exact/element for the compiled system",
             )
-        dev = tube.development
-        data = system_data(
-            layout,
-            dev.radius,
-            dev.pitch,
-            dev.beta,
-            np.array([law.coefficients for law in tube.helical_laws], dtype=float),
-            np.array([law.coefficients for law in tube.circular_laws], dtype=float).reshape(-1, 5),
-        )
+        _announce_compile()
+        data = system_data(layout, radius, pitch, beta, helical, circular)
         data = data._replace(load_reference=np.array([chainterm.reference_height(data)]))
-        return System(data, np.array([force, displacement, control], dtype=float))
+        return System(data, np.zeros(3))
+
+    def with_contact(self, smoothing: float, compliance: float, smooth_min_width: float) -> System:
+        """The system with other contact numbers: ε of the smoothed Fischer–Burmeister rows,
+        the compliance c [mm/N] and the smooth minimum's τ [mm] (``ModelOptions``)."""
+        scalars = self.data.scalars.copy()
+        scalars[3:6] = smoothing, compliance, smooth_min_width
+        return System(self.data._replace(scalars=scalars), self.load)
 
     def at(self, force: float = 0.0, displacement: float = 0.0, control: float = 0.0) -> System:
         """The same tube at another load."""
@@ -130,6 +153,25 @@ class System:
                 [jac[n_q : n_q + n_g, :n_q], -jac[:n_q, n_q + n_g : n_q + n_g + n_c].T, a[None]]
             ),
             gaps=gaps,
+        )
+
+
+_ANNOUNCED: list[bool] = []
+
+
+def _announce_compile() -> None:
+    """Say on the terminal, once per process, that this install's kernels are compiling
+    (:func:`biplan._compile.numba_cache.is_warm`): the first use after an install takes about
+    a minute, every later process loads them."""
+    if _ANNOUNCED:
+        return
+    _ANNOUNCED.append(True)
+    if not numba_cache.is_warm():
+        print(
+            "biplan: compiling the element kernels and solvers for this installation, once "
+            f"(about a minute; cached in {numba_cache.cache_dir()})",
+            file=sys.stderr,
+            flush=True,
         )
 
 

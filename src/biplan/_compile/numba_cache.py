@@ -1,0 +1,105 @@
+"""Where biplan's compiled (Numba) kernels are cached, and when that cache is stale.
+
+Numba's own cache (``cache=True``) keys each function on its own source file: a kernel that
+calls a function of another module keeps its machine code when only that module changes, and
+Numba's in-tree locator creates a ``__pycache__`` folder when a module is imported. biplan's
+kernels call across modules (the Newton calls the assembly, which calls the elements), so
+:class:`BiplanLocator` replaces both rules for biplan's own files, and only for them:
+
+* the cache lives in ``$BIPLAN_NUMBA_CACHE``, else ``$NUMBA_CACHE_DIR/biplan``, else
+  ``$XDG_CACHE_HOME/biplan/numba`` (default ``~/.cache/biplan/numba``), in a folder named by a
+  fingerprint of every biplan module that uses Numba: any change to one of them starts a fresh
+  cache, so no kernel is served with another module's old code;
+* the folder is created when the first compiled kernel is saved, never at import.
+
+Nothing else of Numba's configuration is touched: other packages' functions are cached as Numba
+decides. :func:`is_warm` tells whether the kernels of this install are compiled already (the
+first use after an install compiles them once, about a minute).
+"""
+
+from __future__ import annotations
+
+import functools
+import hashlib
+import os
+from pathlib import Path
+from typing import Any
+
+from numba.core import caching
+
+__all__ = ["BiplanLocator", "cache_dir", "fingerprint", "is_warm"]
+
+_PACKAGE = Path(__file__).resolve().parent.parent
+
+
+@functools.cache
+def fingerprint() -> str:
+    """SHA-256 (first 16 hex digits) of the sources of every biplan module that uses Numba."""
+    digest = hashlib.sha256()
+    for path in sorted(_PACKAGE.rglob("*.py")):
+        text = path.read_bytes()
+        if b"numba" in text:
+            digest.update(str(path.relative_to(_PACKAGE)).encode())
+            digest.update(text)
+    return digest.hexdigest()[:16]
+
+
+def cache_dir() -> Path:
+    """The folder of this install's compiled kernels (module docstring)."""
+    root = os.environ.get("BIPLAN_NUMBA_CACHE")
+    if root:
+        base = Path(root)
+    elif os.environ.get("NUMBA_CACHE_DIR"):
+        base = Path(os.environ["NUMBA_CACHE_DIR"]) / "biplan"
+    else:
+        xdg = os.environ.get("XDG_CACHE_HOME") or str(Path.home() / ".cache")
+        base = Path(xdg) / "biplan" / "numba"
+    return base / fingerprint()
+
+
+def is_warm() -> bool:
+    """Whether compiled kernels of this install's sources are in the cache."""
+    folder = cache_dir()
+    return folder.is_dir() and any(folder.rglob("*.nbi"))
+
+
+class BiplanLocator(caching._CacheLocator):
+    """Numba cache locator for functions defined in biplan's own files (module docstring)."""
+
+    def __init__(self, py_func: Any, py_file: str) -> None:
+        self._py_file = py_file
+        self._lineno = py_func.__code__.co_firstlineno
+        relative = Path(py_file).resolve().relative_to(_PACKAGE)
+        self._cache_path = str(cache_dir() / relative.parent)
+
+    def ensure_cache_path(self) -> None:
+        Path(self._cache_path).mkdir(parents=True, exist_ok=True)
+
+    def get_cache_path(self) -> str:
+        return self._cache_path
+
+    def get_source_stamp(self) -> Any:
+        return fingerprint()
+
+    def get_disambiguator(self) -> str:
+        return str(self._lineno)
+
+    @classmethod
+    def from_function(cls, py_func: Any, py_file: str) -> BiplanLocator | None:
+        try:
+            Path(py_file).resolve().relative_to(_PACKAGE)
+        except (ValueError, OSError):
+            return None
+        return cls(py_func, py_file)
+
+
+def register() -> None:
+    """Put :class:`BiplanLocator` first among Numba's locators (once; it declines every file
+    outside biplan)."""
+    impl = getattr(caching, "CacheImpl", None) or caching._CacheImpl  # renamed in Numba 0.61
+    classes = impl._locator_classes
+    if BiplanLocator not in classes:
+        classes.insert(0, BiplanLocator)
+
+
+register()
