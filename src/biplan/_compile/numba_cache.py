@@ -96,7 +96,7 @@ class BiplanLocator(caching._CacheLocator):
 def register() -> None:
     """Put :class:`BiplanLocator` first among Numba's locators (once; it declines every file
     outside biplan)."""
-    impl = getattr(caching, "CacheImpl", None) or caching._CacheImpl  # renamed in Numba 0.61
+    impl = getattr(caching, "CacheImpl", None) or getattr(caching, "_CacheImpl")  # noqa: B009  (renamed in Numba 0.61)
     classes = impl._locator_classes
     if BiplanLocator not in classes:
         classes.insert(0, BiplanLocator)

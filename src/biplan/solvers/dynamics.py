@@ -14,6 +14,11 @@ Step size: fixed, ``time_step``; a step whose Newton iteration fails is retried 
 halved (up to ``max_halvings`` times) from the last converged state, and the nominal step is
 resumed after the retried stretch. Every retry is counted in ``Trajectory.stats``.
 
+Where the model's chain readings are covered (:meth:`Model.system`), the whole step loop,
+retries included, runs in one compiled call (:mod:`biplan.solvers.step_loop`, the inertia of
+:mod:`biplan.model.system.inertia`); other readings use the JAX kernels
+(:mod:`biplan.solvers._dynkernel`) chunk by chunk. Both take the same steps.
+
 Energy bookkeeping: kinetic T, strain Π, external work W = ∫ F dz_p (trapezoidal) and Rayleigh
 dissipation D = Σ Δqᵀ α_R M q̇_{n+1} (the work of the damping force as the scheme applies
 it); ``total_energy = T + Π − W + dissipated`` is conserved up to the
@@ -24,6 +29,7 @@ from __future__ import annotations
 
 import functools
 from dataclasses import dataclass
+from typing import Any
 
 import numpy as np
 
@@ -38,7 +44,10 @@ from biplan._errors import (
 )
 from biplan.model.assembly import Load, Model
 from biplan.model.inertia import mass_matrix
+from biplan.model.system import System, assemble, chainterm
+from biplan.model.system import inertia as system_inertia
 from biplan.solvers import _dynkernel as dk
+from biplan.solvers import step_loop
 from biplan.solvers.control import Control, ControlKind
 from biplan.solvers.newton import Solution, relaxed_reference
 from biplan.solvers.observe import observe_batch
@@ -196,6 +205,9 @@ def mass_matrix_at(model: Model, q: np.ndarray) -> np.ndarray:
     q = np.asarray(q, dtype=float)
     if q.shape != (model.n_coordinates,):
         raise ConfigError("q", q.shape, f"shape ({model.n_coordinates},)")
+    system = model.system()
+    if system is not None:
+        return system_inertia.mass_matrix(system.data, q, float(model.tube.surface_density))
     m = _mass.compiled(model.layout)(model.params, jnp.asarray(q), model.tube.surface_density)
     return np.asarray(m)
 
@@ -296,47 +308,11 @@ def integrate(
         ]
     )
     load0 = _load_at(ctl, load.value(0.0))
-    state = _initial_state(model, z0, v, load0)
-    run = dk.chunk.compiled(model.layout)
-    args = (jnp.asarray(ctl), jnp.asarray(times), jnp.asarray(values), jnp.asarray(settings))
-    kin0 = float(
-        dk.kinetic_energy.compiled(model.layout)(
-            model.params, jnp.asarray(z0[:nq]), jnp.asarray(v), model.tube.surface_density
-        )
+    system = model.system()
+    run = _run_jax if system is None else _run_system
+    ts, zs, vs, kins, its, diss, rejected, status = run(
+        model, z0, v, load0, ctl, times, values, settings, scheme, t_end
     )
-
-    ts, zs, vs, kins, its, diss = [0.0], [np.asarray(z0)], [v], [kin0], [0], [0.0]
-    t, h0 = 0.0, scheme.time_step
-    halvings, rejected, status = 0, 0, TrajectoryStatus.COMPLETED
-    while t < t_end * (1 - 1e-12):
-        h = h0 * 0.5**halvings
-        grid = t + h * np.arange(1, dk.CHUNK_STEPS + 1)
-        grid = np.minimum(grid, t_end)
-        states, ok, n_it, kin, dis = run(
-            model.params, state, jnp.asarray(t, dtype=jnp.float64), jnp.asarray(grid), *args
-        )
-        ok = np.asarray(ok)
-        n_ok = int(np.argmin(ok)) if not ok.all() else ok.size
-        # steps that land exactly on t_end repeat it: keep the first only
-        n_keep = min(n_ok, int(np.searchsorted(grid, t_end, side="left")) + 1)
-        if n_keep:
-            zs_c = np.asarray(states.z)[:n_keep]
-            zs.extend(zs_c)
-            vs.extend(np.asarray(states.v)[:n_keep])
-            kins.extend(np.asarray(kin)[:n_keep])
-            its.extend(np.asarray(n_it)[:n_keep])
-            diss.extend(np.asarray(dis)[:n_keep])
-            ts.extend(grid[:n_keep])
-            state = jax.tree_util.tree_map(lambda a, k=n_keep: a[k - 1], states)
-            t = float(grid[n_keep - 1])
-        if n_ok < ok.size and t < t_end * (1 - 1e-12):
-            rejected += 1
-            if halvings >= scheme.max_halvings:
-                status = TrajectoryStatus.STEP_FAILED
-                break
-            halvings += 1
-        elif halvings:
-            halvings -= 1
     z_all = np.asarray(zs)
     if not np.all(np.isfinite(z_all)):
         status = TrajectoryStatus.NONFINITE
@@ -380,6 +356,143 @@ def integrate(
     if throw and not status.ok:
         raise ConvergenceError(f"integration under {load}: {trajectory.message}")
     return trajectory
+
+
+#: What both step loops return: t, z, v, T, Newton steps and dissipated energy per step (lists
+#: or arrays, the start first), the number of rejected chunks and the status.
+_Run = tuple[Any, Any, Any, Any, Any, Any, int, TrajectoryStatus]
+
+
+def _run_jax(
+    model: Model,
+    z0: np.ndarray,
+    v: np.ndarray,
+    load0: Load,
+    ctl: np.ndarray,
+    times: np.ndarray,
+    values: np.ndarray,
+    settings: np.ndarray,
+    scheme: GeneralizedAlpha,
+    t_end: float,
+) -> _Run:
+    """The step loop of the JAX kernels: compiled chunks (:func:`_dynkernel.chunk`), retried
+    with smaller steps from Python."""
+    nq = model.n_coordinates
+    state = _initial_state(model, z0, v, load0)
+    run = dk.chunk.compiled(model.layout)
+    args = (jnp.asarray(ctl), jnp.asarray(times), jnp.asarray(values), jnp.asarray(settings))
+    kin0 = float(
+        dk.kinetic_energy.compiled(model.layout)(
+            model.params, jnp.asarray(z0[:nq]), jnp.asarray(v), model.tube.surface_density
+        )
+    )
+
+    ts, zs, vs, kins, its, diss = [0.0], [np.asarray(z0)], [v], [kin0], [0], [0.0]
+    t, h0 = 0.0, scheme.time_step
+    halvings, rejected, status = 0, 0, TrajectoryStatus.COMPLETED
+    while t < t_end * (1 - 1e-12):
+        h = h0 * 0.5**halvings
+        grid = t + h * np.arange(1, dk.CHUNK_STEPS + 1)
+        grid = np.minimum(grid, t_end)
+        states, ok, n_it, kin, dis = run(
+            model.params, state, jnp.asarray(t, dtype=jnp.float64), jnp.asarray(grid), *args
+        )
+        ok = np.asarray(ok)
+        n_ok = int(np.argmin(ok)) if not ok.all() else ok.size
+        # steps that land exactly on t_end repeat it: keep the first only
+        n_keep = min(n_ok, int(np.searchsorted(grid, t_end, side="left")) + 1)
+        if n_keep:
+            zs_c = np.asarray(states.z)[:n_keep]
+            zs.extend(zs_c)
+            vs.extend(np.asarray(states.v)[:n_keep])
+            kins.extend(np.asarray(kin)[:n_keep])
+            its.extend(np.asarray(n_it)[:n_keep])
+            diss.extend(np.asarray(dis)[:n_keep])
+            ts.extend(grid[:n_keep])
+            state = jax.tree_util.tree_map(lambda a, k=n_keep: a[k - 1], states)
+            t = float(grid[n_keep - 1])
+        if n_ok < ok.size and t < t_end * (1 - 1e-12):
+            rejected += 1
+            if halvings >= scheme.max_halvings:
+                status = TrajectoryStatus.STEP_FAILED
+                break
+            halvings += 1
+        elif halvings:
+            halvings -= 1
+    return ts, zs, vs, kins, its, diss, rejected, status
+
+
+def _run_system(
+    model: Model,
+    z0: np.ndarray,
+    v: np.ndarray,
+    load0: Load,
+    ctl: np.ndarray,
+    times: np.ndarray,
+    values: np.ndarray,
+    settings: np.ndarray,
+    scheme: GeneralizedAlpha,
+    t_end: float,
+) -> _Run:
+    """The step loop of the compiled system: the whole trajectory, retries included, in one
+    call of :func:`step_loop.trajectory`."""
+    system = model.system()
+    assert system is not None
+    d = system.data
+    mu = float(model.tube.surface_density)
+    qdd0, force0 = _initial_acceleration(system, z0, v, load0, mu)
+    scalars0 = step_loop.initial_scalars(d, np.asarray(z0, dtype=float), v, force0, mu)
+    ts, zs, vs, kins, its, diss, count, rejected, code = step_loop.trajectory(
+        d,
+        np.asarray(z0, dtype=float),
+        v,
+        qdd0,
+        scalars0,
+        np.asarray(ctl, dtype=float),
+        times,
+        values,
+        settings,
+        float(t_end),
+        float(scheme.time_step),
+        int(scheme.max_halvings),
+    )
+    status = (
+        TrajectoryStatus.COMPLETED if code == step_loop.COMPLETED else TrajectoryStatus.STEP_FAILED
+    )
+    return (
+        ts[:count],
+        zs[:count],
+        vs[:count],
+        kins[:count],
+        its[:count],
+        diss[:count],
+        int(rejected),
+        status,
+    )
+
+
+def _initial_acceleration(
+    system: System, z0: np.ndarray, v0: np.ndarray, load: Load, surface_density: float
+) -> tuple[np.ndarray, float]:
+    """(q̈0, F0) of :func:`_initial_state` from the compiled system."""
+    n_q, n_g, n_c = system.sizes
+    d = system.data
+    q0 = np.asarray(z0[:n_q], dtype=float)
+    z = np.concatenate([q0, np.zeros(n_g + n_c + 1)])
+    at = np.array([float(load.force), float(load.displacement), float(load.displacement_control)])
+    r, _, _, _, terms = assemble.evaluate(d, z, at, True)
+    m = system_inertia.mass_matrix(d, q0, surface_density)
+    gaps, g_mat, c_mat = terms[3], terms[4], terms[5]
+    a = np.concatenate([g_mat, c_mat[gaps < 1e-8]])
+    if load.is_displacement_controlled:
+        grad = np.zeros(n_q)
+        chainterm.load_point(d, q0, grad, np.zeros((0, 0)), 0.0, False)
+        a = np.concatenate([a, grad[None, :]])
+    k = a.shape[0]
+    mat = np.block([[m, a.T], [a, np.zeros((k, k))]])
+    sol = np.linalg.lstsq(mat, np.concatenate([-r[:n_q], np.zeros(k)]), rcond=None)[0]
+    force = -z0[-1] if load.is_displacement_controlled else float(load.force)
+    return sol[:n_q], float(force)
 
 
 def _load_at(ctl: np.ndarray, load_parameter: np.ndarray | float) -> Load:

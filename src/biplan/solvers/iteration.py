@@ -124,10 +124,12 @@ def newton(
     load: np.ndarray,
     z0: np.ndarray,
     settings: np.ndarray,
-    border: np.ndarray = NO_BORDER,
-    rho: float = 0.0,
+    border: np.ndarray,
+    rho: float,
 ) -> tuple:  # type: ignore[type-arg]
-    """Solve R(z) = 0 of the system (d, load[, border, ρ]) from z0 (:func:`system`).
+    """Solve R(z) = 0 of the system (d, load, border, ρ) from z0 (:func:`system`); the KKT
+    system with ``border`` = :data:`NO_BORDER`. (No default arguments: Numba keys an omitted
+    array default by its identity, so a function with one is never found in the cache.)
 
     Returns (z, R, merit f, Jacobian at z, steps, status); the Jacobian is the one at z once a
     pass was accepted (finite f).
