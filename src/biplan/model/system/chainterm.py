@@ -12,6 +12,11 @@ The derivatives follow by the chain rule through y_c (local Jacobians J_c, 3 × 
 Hessians) and the closed-form derivatives of Z in (α, t, x_top): ∂²Z/∂α_a∂α_b =
 −Σ_{c > max(a, b)} [R(θ_c) t_c]_z − [R(θ) X̄]_z, ∂²Z/∂α_a∂t_c = ∂R(θ_c)/∂θ row z (c > a),
 ∂²Z/∂t² = 0. O(N_c²) work, the size of the dense result.
+
+The increment is t_c = P + R(α_c)(−P) + [u_L, 0] + R(α_c)[δ_c, 0] (P the pivot of the lower
+element carrying the module above, α_c its angle, δ_c = γ + z_L(0) − z_U(0) the seam offset),
+so its local Hessians have a closed form in ∇δ_c and the diagonal ∇²δ_c: they enter the
+Hessian of Z directly (:func:`load_point`), never as 3 × 7 × 7 arrays.
 """
 
 from __future__ import annotations
@@ -21,60 +26,164 @@ import math
 import numpy as np
 from numba import njit
 
-from biplan.model.system.elements import _edge, node
+from biplan.model.system.elements import Quad, angles, edge, kernel, pair, pivots, rotated
 from biplan.model.system.tables import SystemData
 
-__all__ = ["load_point"]
+__all__ = ["edge_points", "load_point", "reference_height"]
 
 
-@njit(cache=True)
-def _increment(x: np.ndarray, d: SystemData, c: int, want: bool) -> tuple:  # type: ignore[type-arg]
-    """(α, t_z, t_s), J (3, 7), Hessians (3, 7, 7) of connector c's frame increment."""
-    ref, pitch = d.ref, d.scalars[0]
-    lo, up, e = d.conn_lower[c], d.conn_upper[c], d.conn_element[c]
-    seam = d.conn_first_point[c]
-    jac = np.zeros((3, 7))
-    hess = np.zeros((3, 7, 7))
+@kernel
+def _gather(q: np.ndarray, dofs: np.ndarray, c: int, x: np.ndarray) -> None:
+    """Fills ``x`` (7,) with connector c's coordinates x_c (0 at the clamp's), ``dofs``: the
+    table ``conn_dofs``."""
+    for k in range(7):
+        x[k] = 0.0 if dofs[c, k] < 0 else q[dofs[c, k]]
+
+
+@kernel
+def _frame(
+    x: np.ndarray,
+    c: int,
+    p_lo: Quad,
+    p_up: Quad,
+    pitch: float,
+    seam: np.ndarray,
+    height: float,
+    gd: np.ndarray,
+    hd: np.ndarray,
+    jacs: np.ndarray,
+    row: int,
+) -> tuple[float, float, float, float]:
+    """(α, t_z, t_s, δ) of connector c's frame increment at x_c = ``x``; fills ``gd`` and
+    ``hd`` (7,) with ∇δ and the diagonal of ∇²δ and ``jacs[row]`` (3, 7) with J_c =
+    ∂y_c/∂x_c. The connector: row c of the table ``seam`` (:class:`~.tables.SystemData`
+    ``conn_seam``), its seam ``height`` and the :func:`~.elements.pivots` of its lower and
+    upper module (:mod:`.elements`: no view, no SystemData per connector)."""
+    for k in range(7):
+        gd[k] = 0.0
+        hd[k] = 0.0
+    e, eu, el, rigid = seam[c, 0], seam[c, 1], seam[c, 2], seam[c, 3]
+    t_lo, t_up = angles(x[1], x[2]), angles(x[4], x[5])
     # δ = γ + z_L(0) − z_U(0): its gradient and (diagonal) Hessian in x_c
-    gd = np.zeros(7)
-    hd = np.zeros(7)
-    eu = d.point_upper_element[seam]
-    h, h1, h2 = _edge(x, ref[up], 3, eu, 0.0, 0.0)
+    h, h1, h2 = edge(x[3], t_up, p_up, eu, 0.0, 0.0)
     delta = x[6] - h
     gd[3] -= 1.0
     gd[4 + eu] -= h1
     hd[4 + eu] -= h2
     gd[6] = 1.0
-    if d.point_rigid[seam]:
-        delta += d.point_height[seam]
+    if rigid:
+        delta += height
     else:
-        el = d.point_lower_element[seam]
-        h, h1, h2 = _edge(x, ref[lo], 0, el, pitch, 0.0)
+        h, h1, h2 = edge(x[0], t_lo, p_lo, el, pitch, 0.0)
         delta += h
         gd[0] += 1.0
         gd[1 + el] += h1
         hd[1 + el] += h2
-    if e < 0 or lo < 0:
-        jac[1] = gd
-        if want:
-            for k in range(7):
-                hess[1, k, k] = hd[k]
-        return 0.0, delta, 0.0, jac, hess
+    if e < 0:  # no frame angle: y_c = (0, δ, 0)
+        for k in range(7):
+            jacs[row, 0, k] = 0.0
+            jacs[row, 1, k] = gd[k]
+            jacs[row, 2, k] = 0.0
+        return 0.0, delta, 0.0, delta
     ia = 1 + e
     alpha = x[ia]
-    pivot = 0 if e == 0 else 6
-    pz, ps = ref[lo, pivot, 0], ref[lo, pivot, 1]
-    ca, sa = math.cos(alpha), math.sin(alpha)
+    pz, ps = pair(p_lo, e)
+    ca, sa = pair(t_lo, e)  # cos, sin α
     tz = pz - (ca * pz - sa * ps) + x[0] + ca * delta
     ts = ps - (sa * pz + ca * ps) + sa * delta
-    jac[0, ia] = 1.0
     for k in range(7):
-        jac[1, k] = ca * gd[k]
-        jac[2, k] = sa * gd[k]
-    jac[1, 0] += 1.0
-    jac[1, ia] += sa * pz + ca * ps - sa * delta
-    jac[2, ia] += -ca * pz + sa * ps + ca * delta
-    if want:
+        jacs[row, 0, k] = 0.0
+        jacs[row, 1, k] = ca * gd[k]
+        jacs[row, 2, k] = sa * gd[k]
+    jacs[row, 0, ia] = 1.0
+    jacs[row, 1, 0] += 1.0
+    jacs[row, 1, ia] += sa * pz + ca * ps - sa * delta
+    jacs[row, 2, ia] += -ca * pz + sa * ps + ca * delta
+    return alpha, tz, ts, delta
+
+
+@kernel
+def _local_hessian(
+    c: int,
+    dofs: np.ndarray,
+    e: int,
+    p_lo: Quad,
+    alpha: float,
+    ct: float,
+    st: float,
+    delta: float,
+    gd: np.ndarray,
+    hd: np.ndarray,
+    hessian: np.ndarray,
+    coef: float,
+) -> None:
+    """Adds ``coef`` Σ_k ∂Z/∂y_k ∇²y_k of connector c (α is linear in x_c) to ``hessian``:
+    with ∂Z/∂t = (cos θ_c, −sin θ_c) and C, S = cos, sin(θ_c + α_c), it is C ∇²δ on the
+    diagonal, −S ∇δ in the row and column of α_c and C (P_z − δ) − S P_s at (α_c, α_c)
+    (e: the frame element, ``conn_seam[c, 0]``; the rest as :func:`_frame` takes and leaves
+    it)."""
+    if e < 0:  # t_z = δ
+        for k in range(7):
+            if dofs[c, k] >= 0:
+                hessian[dofs[c, k], dofs[c, k]] += coef * ct * hd[k]
+        return
+    pz, ps = pair(p_lo, e)
+    ca, sa = math.cos(alpha), math.sin(alpha)
+    cc, ss = ct * ca - st * sa, st * ca + ct * sa
+    g = dofs[c, 1 + e]
+    for k in range(7):
+        dof = dofs[c, k]
+        if dof < 0:
+            continue
+        hessian[dof, dof] += coef * cc * hd[k]
+        hessian[g, dof] -= coef * ss * gd[k]
+        hessian[dof, g] -= coef * ss * gd[k]
+    hessian[g, g] += coef * (cc * (pz - delta) - ss * ps)
+
+
+@kernel
+def _connector(
+    d: SystemData,  # type: ignore[type-arg]
+    x: np.ndarray,
+    c: int,
+    local: np.ndarray,
+    jacs: np.ndarray,
+    row: int,
+) -> tuple[float, float, float, float]:
+    """:func:`_frame` of connector c of ``d`` at x_c = ``x`` (``local`` (2, 7): scratch for
+    ∇δ and diag ∇²δ), for the paths off the element loops."""
+    lo, up = max(d.conn_lower[c], 0), d.conn_upper[c]
+    p_lo, p_up = pivots(d.ref, lo), pivots(d.ref, up)
+    height = d.conn_seam_height[c]
+    return _frame(
+        x, c, p_lo, p_up, d.scalars[0], d.conn_seam, height, local[0], local[1], jacs, row
+    )
+
+
+@njit(cache=True)
+def _dofs(d: SystemData, c: int) -> np.ndarray:  # type: ignore[type-arg]
+    """Global coordinate of each of connector c's 7 local coordinates (−1: the clamp's)."""
+    return d.conn_dofs[c].copy()
+
+
+@njit(cache=True)
+def _increment(x: np.ndarray, d: SystemData, c: int, want: bool) -> tuple:  # type: ignore[type-arg]
+    """(α, t_z, t_s), J (3, 7), Hessians (3, 7, 7) (zeros unless ``want``) of connector c's
+    frame increment at x_c = ``x``: :func:`_frame` with its local Hessians as dense arrays
+    (for :mod:`.inertia`; the load point adds them to ∇²Z directly, :func:`_local_hessian`)."""
+    local = np.empty((2, 7))
+    jac = np.empty((1, 3, 7))
+    hess = np.zeros((3, 7, 7))
+    alpha, tz, ts, delta = _connector(d, x, c, local, jac, 0)
+    gd, hd = local[0], local[1]
+    e = d.conn_seam[c, 0]
+    if want and e < 0:
+        for k in range(7):
+            hess[1, k, k] = hd[k]
+    elif want:
+        ia, lo = 1 + e, d.conn_lower[c]
+        pz, ps = pair(pivots(d.ref, lo), e)
+        ca, sa = math.cos(alpha), math.sin(alpha)
         for k in range(7):
             hess[1, k, k] += ca * hd[k]
             hess[2, k, k] += sa * hd[k]
@@ -84,63 +193,55 @@ def _increment(x: np.ndarray, d: SystemData, c: int, want: bool) -> tuple:  # ty
             hess[2, k, ia] += ca * gd[k]
         hess[1, ia, ia] += ca * pz - sa * ps - ca * delta
         hess[2, ia, ia] += sa * pz + ca * ps - sa * delta
-    return alpha, tz, ts, jac, hess
+    return alpha, tz, ts, jac[0].copy(), hess
 
 
-@njit(cache=True)
-def _top(x: np.ndarray, ref: np.ndarray, weights: np.ndarray) -> tuple:
-    """X̄ = Σ ω_i X_i of the top module (z, s), its gradient (2, 3) and Hessian diagonal."""
-    xbar = np.zeros(2)
-    g = np.zeros((2, 3))
-    hdiag = np.zeros((2, 3))
+@kernel
+def _top(
+    q: np.ndarray, m: int, ref: np.ndarray, weights: np.ndarray, g: np.ndarray, hd: np.ndarray
+) -> tuple[float, float]:
+    """X̄ = Σ ω_i X_i of the top module m (z, s); fills ``g`` (2, 3) with its gradient and
+    ``hd`` (2, 3) with its Hessian diagonal in x_top = q[3m : 3m + 3]."""
+    u = q[3 * m]
+    trig = angles(q[3 * m + 1], q[3 * m + 2])
+    zbar = sbar = 0.0
+    for r in range(2):
+        for k in range(3):
+            g[r, k] = 0.0
+            hd[r, k] = 0.0
     for i in range(7):
         wi = weights[i]
         if wi == 0.0:
             continue
         e = 0 if i < 4 else 1
-        z, s, dz, ds, d2z, d2s = node(x, ref, i, e)
-        xbar[0] += wi * z
-        xbar[1] += wi * s
+        z, s, dz, ds, d2z, d2s = rotated(u, trig, ref, m, i, e)
+        zbar += wi * z
+        sbar += wi * s
         g[0, 0] += wi
         g[0, 1 + e] += wi * dz
         g[1, 1 + e] += wi * ds
-        hdiag[0, 1 + e] += wi * d2z
-        hdiag[1, 1 + e] += wi * d2s
-    return xbar, g, hdiag
+        hd[0, 1 + e] += wi * d2z
+        hd[1, 1 + e] += wi * d2s
+    return zbar, sbar
 
 
 @njit(cache=True)
-def _dofs(d: SystemData, c: int) -> np.ndarray:  # type: ignore[type-arg]
-    """Global coordinate of each of connector c's 7 local coordinates (−1: the clamp's)."""
-    n = d.ref.shape[0]
-    out = np.empty(7, dtype=np.int64)
-    lo, up = d.conn_lower[c], d.conn_upper[c]
-    for k in range(3):
-        out[k] = -1 if lo < 0 else 3 * lo + k
-        out[3 + k] = 3 * up + k
-    out[6] = 3 * n + c
-    return out
-
-
-@njit(cache=True)
-def _height(d: SystemData, q: np.ndarray) -> float:  # type: ignore[type-arg]
-    """Z(q) (module docstring), value only."""
-    n, nc = d.ref.shape[0], d.conn_upper.shape[0]
-    theta = 0.0
-    z = 0.0
-    x = np.zeros(7)
+def _chain_end(d: SystemData, q: np.ndarray) -> tuple[float, float, float]:  # type: ignore[type-arg]
+    """(θ, p_z, p_s): the top module's frame at q, composed up the chain (value only)."""
+    nc = d.conn_upper.shape[0]
+    x, local, jacs = np.empty(7), np.empty((2, 7)), np.empty((1, 3, 7))
+    theta, pz, ps = 0.0, 0.0, 0.0
     for c in range(nc):
-        dofs = _dofs(d, c)
-        for k in range(7):
-            x[k] = 0.0 if dofs[k] < 0 else q[dofs[k]]
-        alpha, tz, ts, _, _ = _increment(x, d, c, False)
-        z += math.cos(theta) * tz - math.sin(theta) * ts
+        _gather(q, d.conn_dofs, c, x)
+        alpha, tz, ts, _ = _connector(d, x, c, local, jacs, 0)
+        ct, st = math.cos(theta), math.sin(theta)
+        pz += ct * tz - st * ts
+        ps += st * tz + ct * ts
         theta += alpha
-    xbar, _, _ = _top(q[3 * n - 3 : 3 * n], d.ref[n - 1], d.load_weights)
-    return z + math.cos(theta) * xbar[0] - math.sin(theta) * xbar[1]
+    return theta, pz, ps
 
 
-@njit(cache=True)
+@njit(cache=True, inline="always")
 def load_point(
     d: SystemData,
     q: np.ndarray,
@@ -151,116 +252,124 @@ def load_point(
 ) -> float:
     """z_p(q) [mm]; fills ``gradient`` (n_q,) with ∇z_p and, if ``second``, adds
     ``coef`` ∇²z_p to ``hessian`` (n_q, n_q)."""
+    # a run-time flag: one compilation (:mod:`.assemble`)
+    return _load_point(d, q, gradient, hessian, coef, bool(second))
+
+
+@njit(cache=True)
+def _load_point(
+    d: SystemData,
+    q: np.ndarray,
+    gradient: np.ndarray,
+    hessian: np.ndarray,
+    coef: float,
+    second: bool,
+) -> float:
+    """:func:`load_point`."""
     n, nc = d.ref.shape[0], d.conn_upper.shape[0]
-    alphas = np.zeros(nc)
-    before = np.zeros(nc)  # θ_c
-    v_z = np.zeros(nc)  # [R(θ_c) t_c]_z
-    v_s = np.zeros(nc)
-    jacs = np.zeros((nc, 3, 7))
-    dofs = np.zeros((nc, 7), dtype=np.int64)
-    x = np.zeros(7)
+    dofs = d.conn_dofs
+    jacs = np.empty((nc, 3, 7))
+    # per connector: cos θ_c, sin θ_c, [R(θ_c) t_c]_z, [R(θ_c) t_c]_s, and the suffix sums
+    # Σ_{c' ≥ c} of the last two
+    chain = np.empty((6, nc + 1))
+    cos_b, sin_b, v_z, v_s = chain[0], chain[1], chain[2], chain[3]
+    suffix_z, suffix_s = chain[4], chain[5]
+    local = np.empty((3, 7))  # x_c, ∇δ_c, diag ∇²δ_c
+    x, gd, hd = local[0], local[1], local[2]
     theta = 0.0
-    for c in range(nc):
-        dofs[c] = _dofs(d, c)
-        for k in range(7):
-            x[k] = 0.0 if dofs[c, k] < 0 else q[dofs[c, k]]
-        alpha, tz, ts, jac, hy = _increment(x, d, c, second)
+    ref, pitch, seam = d.ref, d.scalars[0], d.conn_seam
+    for c in range(nc):  # (:func:`_connector` written out: no SystemData per connector)
+        p_lo = pivots(ref, max(d.conn_lower[c], 0))
+        p_up = pivots(ref, d.conn_upper[c])
+        _gather(q, dofs, c, x)
+        height = d.conn_seam_height[c]
+        alpha, tz, ts, delta = _frame(x, c, p_lo, p_up, pitch, seam, height, gd, hd, jacs, c)
         ct, st = math.cos(theta), math.sin(theta)
-        alphas[c], before[c], jacs[c] = alpha, theta, jac
+        cos_b[c], sin_b[c] = ct, st
         v_z[c] = ct * tz - st * ts
         v_s[c] = st * tz + ct * ts
         theta += alpha
-        if second:  # local part: Σ_k ∂Z/∂y_k ∇²y_k (α is linear in x_c)
-            for i in range(7):
-                if dofs[c, i] < 0:
-                    continue
-                for j in range(7):
-                    if dofs[c, j] >= 0:
-                        hessian[dofs[c, i], dofs[c, j]] += coef * (
-                            ct * hy[1, i, j] - st * hy[2, i, j]
-                        )
-    top = np.arange(3 * n - 3, 3 * n)
-    xbar, gx, hx = _top(q[3 * n - 3 : 3 * n], d.ref[n - 1], d.load_weights)
+        if second:  # local part: Σ_k ∂Z/∂y_k ∇²y_k
+            _local_hessian(c, dofs, seam[c, 0], p_lo, alpha, ct, st, delta, gd, hd, hessian, coef)
+    top = np.empty((2, 2, 3))  # ∇X̄ and the diagonal of ∇²X̄ in x_top
+    gx, hx = top[0], top[1]
+    t0 = 3 * n - 3  # x_top = q[t0 : t0 + 3]
+    zbar, sbar = _top(q, n - 1, d.ref, d.load_weights, gx, hx)
     ct, st = math.cos(theta), math.sin(theta)
-    t_z = ct * xbar[0] - st * xbar[1]  # [R(θ) X̄]_z
-    t_theta = -st * xbar[0] - ct * xbar[1]
-    value = v_z.sum() + t_z
+    t_z = ct * zbar - st * sbar  # [R(θ) X̄]_z
+    t_theta = -st * zbar - ct * sbar
     # ∂Z/∂α_a = −Σ_{c > a} [R(θ_c) t_c]_s + ∂[R(θ) X̄]_z/∂θ (suffix sums)
-    suffix_s = np.zeros(nc + 1)
-    suffix_z = np.zeros(nc + 1)
+    suffix_s[nc] = suffix_z[nc] = 0.0
     for c in range(nc - 1, -1, -1):
         suffix_s[c] = suffix_s[c + 1] + v_s[c]
         suffix_z[c] = suffix_z[c + 1] + v_z[c]
+    value = suffix_z[0] + t_z
     gradient[:] = 0.0
     for c in range(nc):
         g_alpha = -suffix_s[c + 1] + t_theta
-        g_tz, g_ts = math.cos(before[c]), -math.sin(before[c])
         for k in range(7):
             if dofs[c, k] >= 0:
                 gradient[dofs[c, k]] += (
-                    jacs[c, 0, k] * g_alpha + jacs[c, 1, k] * g_tz + jacs[c, 2, k] * g_ts
+                    jacs[c, 0, k] * g_alpha + jacs[c, 1, k] * cos_b[c] - jacs[c, 2, k] * sin_b[c]
                 )
     for k in range(3):
-        gradient[top[k]] += ct * gx[0, k] - st * gx[1, k]
+        gradient[t0 + k] += ct * gx[0, k] - st * gx[1, k]
     if not second:
         return value
     # chain part: Jᵀ ∇²Z J
-    m_top = np.zeros(3)  # ∂²Z/∂θ∂x_top
+    for c in range(nc):  # ∂²Z/∂θ∂t_c J_c, kept in J_c's first row (α_c's, now used)
+        for k in range(7):
+            jacs[c, 0, k] = -sin_b[c] * jacs[c, 1, k] - cos_b[c] * jacs[c, 2, k]
     for k in range(3):
-        m_top[k] = -st * gx[0, k] - ct * gx[1, k]
-        hessian[top[k], top[k]] += coef * (ct * hx[0, k] - st * hx[1, k])
+        hessian[t0 + k, t0 + k] += coef * (ct * hx[0, k] - st * hx[1, k])
+    frame = d.conn_seam[:, 0]  # the element carrying each frame angle, -1 none
     for a in range(nc):
-        if d.conn_element[a] < 0 or d.conn_lower[a] < 0:
+        if frame[a] < 0:
             continue
-        ia = dofs[a, 1 + d.conn_element[a]]
+        ia = dofs[a, 1 + frame[a]]
         for b in range(nc):
-            if d.conn_element[b] < 0 or d.conn_lower[b] < 0:
+            if frame[b] < 0:
                 continue
-            ib = dofs[b, 1 + d.conn_element[b]]
+            ib = dofs[b, 1 + frame[b]]
             hessian[ia, ib] += coef * (-suffix_z[max(a, b) + 1] - t_z)
-        for k in range(3):
-            hessian[ia, top[k]] += coef * m_top[k]
-            hessian[top[k], ia] += coef * m_top[k]
+        for k in range(3):  # ∂²Z/∂θ∂x_top
+            m_top = coef * (-st * gx[0, k] - ct * gx[1, k])
+            hessian[ia, t0 + k] += m_top
+            hessian[t0 + k, ia] += m_top
         for c in range(a + 1, nc):
-            sb, cb = math.sin(before[c]), math.cos(before[c])
             for k in range(7):
                 if dofs[c, k] >= 0:
-                    u = -sb * jacs[c, 1, k] - cb * jacs[c, 2, k]
-                    hessian[ia, dofs[c, k]] += coef * u
-                    hessian[dofs[c, k], ia] += coef * u
+                    u = coef * jacs[c, 0, k]
+                    hessian[ia, dofs[c, k]] += u
+                    hessian[dofs[c, k], ia] += u
     return value
 
 
 @njit(cache=True)
 def reference_height(d: SystemData) -> float:
     """Z(0): the load point at q = 0 (depends on the geometry only)."""
-    return _height(d, np.zeros(d.sizes[0]))
+    n = d.ref.shape[0]
+    q = np.zeros(d.sizes[0])
+    theta, pz, _ = _chain_end(d, q)
+    top = np.empty((2, 2, 3))
+    zbar, sbar = _top(q, n - 1, d.ref, d.load_weights, top[0], top[1])
+    return pz + math.cos(theta) * zbar - math.sin(theta) * sbar
 
 
 @njit(cache=True)
 def edge_points(d: SystemData, q: np.ndarray) -> np.ndarray:  # type: ignore[type-arg]
     """Global (z, s) [mm] of the free-end edge's segment ends, (S, 2, 2) (the top module's
     nodes in the frame composed up the chain; :func:`biplan.geometry.chain.end_edge_points`)."""
-    n, nc = d.ref.shape[0], d.conn_upper.shape[0]
-    theta, pz, ps = 0.0, 0.0, 0.0
-    x = np.zeros(7)
-    for c in range(nc):
-        dofs = _dofs(d, c)
-        for k in range(7):
-            x[k] = 0.0 if dofs[k] < 0 else q[dofs[k]]
-        alpha, tz, ts, _, _ = _increment(x, d, c, False)
-        ct, st = math.cos(theta), math.sin(theta)
-        pz += ct * tz - st * ts
-        ps += st * tz + ct * ts
-        theta += alpha
+    n = d.ref.shape[0]
+    theta, pz, ps = _chain_end(d, q)
     ct, st = math.cos(theta), math.sin(theta)
     segs = d.end_segments
     out = np.zeros((segs.shape[0], 2, 2))
-    x_top = q[3 * n - 3 : 3 * n]
+    u, trig = q[3 * n - 3], angles(q[3 * n - 2], q[3 * n - 1])
     for j in range(segs.shape[0]):
         for end in range(2):
             i = segs[j, end]
-            z, s, _, _, _, _ = node(x_top, d.ref[n - 1], i, 0 if i < 4 else 1)
+            z, s, _, _, _, _ = rotated(u, trig, d.ref, n - 1, i, 0 if i < 4 else 1)
             out[j, end, 0] = pz + ct * z - st * s
             out[j, end, 1] = ps + st * z + ct * s
     return out

@@ -16,6 +16,14 @@ Written by hand from the element energies, each checked against the JAX autodiff
 
 The kinematic quantities are affine in u and γ and each angle enters one rigid element, so
 their Hessians are diagonal (entries at the angles): they are returned as diagonals.
+
+The element loops (:mod:`.assemble`, :mod:`.chainterm`) call the ``*_into`` kernels: they fill
+scratch arrays, take the tables of :class:`~.tables.SystemData` whole with an element index
+and the angles as (cos, sin), one cos and sin an angle (:func:`angles`). The kernels are
+inlined by LLVM (``forceinline``) with NumPy's error model (a division by zero gives ±inf or
+nan, as JAX does, instead of raising), so that an element costs no call and Numba prunes the
+reference counting of their arrays, which it cannot where a loop holds an exception path (a
+raising division, a run-time tuple index, a call not inlined) or builds views (``d.ref[i]``).
 """
 
 from __future__ import annotations
@@ -25,15 +33,46 @@ import math
 import numpy as np
 from numba import njit
 
-__all__ = ["connector_points", "field_energy", "line_height", "module_rows"]
+__all__ = [
+    "angles",
+    "connector_points",
+    "edge",
+    "field_energy",
+    "law_of",
+    "line_height",
+    "module_rows",
+    "node",
+    "pair",
+    "pivots",
+    "points_into",
+    "rotated",
+    "rows_into",
+]
+
+#: The decorator of the kernels (module docstring): compiled once per signature and inlined
+#: by LLVM into their callers, with NumPy's error model.
+kernel = njit(cache=True, forceinline=True, error_model="numpy")
+
+#: (cos φ1, sin φ1, cos φ2, sin φ2) of a module (:func:`angles`) or (z, s, z, s) of its pivots
+#: (:func:`pivots`): a pair per element.
+Quad = tuple[float, float, float, float]
+
+#: A law row (k1, k2, k3, w1, w2): an array, or a tuple in the kernels (:func:`law_of`).
+Law = np.ndarray | tuple[float, float, float, float, float]
 
 #: Below this elongation difference [mm] a field that straddles a breakpoint is integrated on
 #: the branch of its midpoint (as :data:`biplan.laws._kernels.SPLIT_TOLERANCE`).
 SPLIT_TOLERANCE = 1e-6
 
 
-@njit(cache=True)
-def branch(w: float, law: np.ndarray) -> int:
+@kernel
+def law_of(table: np.ndarray, i: int) -> tuple[float, float, float, float, float]:
+    """Row i of a law table (``helical``, ``circular``): (k1, k2, k3, w1, w2), no view."""
+    return table[i, 0], table[i, 1], table[i, 2], table[i, 3], table[i, 4]
+
+
+@kernel
+def branch(w: float, law: Law) -> int:
     """0 closed (w < w1), 1 spinodal, 2 open (w ≥ w2) for law = (k1, k2, k3, w1, w2)."""
     if w < law[3]:
         return 0
@@ -42,8 +81,8 @@ def branch(w: float, law: np.ndarray) -> int:
     return 2
 
 
-@njit(cache=True)
-def on_branch(j: int, w: float, law: np.ndarray) -> tuple[float, float, float]:
+@kernel
+def on_branch(j: int, w: float, law: Law) -> tuple[float, float, float]:
     """(Ψ [N], F [N/mm], k [N/mm²]) of branch j's quadratic at w (MODEL §1)."""
     k1, k2, k3, w1, w2 = law[0], law[1], law[2], law[3], law[4]
     f1 = k1 * w1
@@ -60,8 +99,26 @@ def on_branch(j: int, w: float, law: np.ndarray) -> tuple[float, float, float]:
     return psi2 + f2 * d2 + 0.5 * k3 * d2 * d2, f2 + k3 * d2, k3
 
 
-@njit(cache=True)
-def field_energy(w0: float, wl: float, length: float, law: np.ndarray) -> tuple:
+@kernel
+def _piece(t0: float, t1: float, w0: float, dw: float, law: Law) -> tuple:
+    """The integrals of :func:`field_energy` over t ∈ [t0, t1] (per unit length), by Simpson's
+    rule on the branch of the piece's midpoint (exact: one quadratic branch)."""
+    j = branch(w0 + 0.5 * (t0 + t1) * dw, law)
+    h = (t1 - t0) / 6.0
+    e = ea = eb = eaa = eab = ebb = 0.0
+    for t, wt in ((t0, h), (0.5 * (t0 + t1), 4.0 * h), (t1, h)):
+        psi, f, k = on_branch(j, w0 + t * dw, law)
+        e += wt * psi
+        ea += wt * (1.0 - t) * f
+        eb += wt * t * f
+        eaa += wt * (1.0 - t) * (1.0 - t) * k
+        eab += wt * t * (1.0 - t) * k
+        ebb += wt * t * t * k
+    return e, ea, eb, eaa, eab, ebb
+
+
+@njit(cache=True, forceinline=True, error_model="numpy")
+def field_energy(w0: float, wl: float, length: float, law: Law) -> tuple:
     """(E, E_a, E_b, E_aa, E_ab, E_bb): the field energy [N·mm] of a linear field from
     a = w0 to b = wL over ``length`` [mm] and its derivatives in (a, b).
 
@@ -84,40 +141,39 @@ def field_energy(w0: float, wl: float, length: float, law: np.ndarray) -> tuple:
             length * k / 6.0,
             length * k / 3.0,
         )
-    cuts = np.empty(4)
-    cuts[0] = 0.0
-    n = 1
-    for wb in (w1, w2):
-        if lo < wb < hi:
-            cuts[n] = (wb - w0) / dw
-            n += 1
-    cuts[n] = 1.0
-    if n == 3 and cuts[1] > cuts[2]:
-        cuts[1], cuts[2] = cuts[2], cuts[1]
+    # the breakpoints inside (a, b) as fractions of the field, in order (2.0: none)
+    ta = (w1 - w0) / dw if lo < w1 < hi else 2.0
+    tb = (w2 - w0) / dw if lo < w2 < hi else 2.0
+    if ta > tb:
+        ta, tb = tb, ta
     e = ea = eb = eaa = eab = ebb = 0.0
-    for p in range(n):
-        t0, t1 = cuts[p], cuts[p + 1]
-        j = branch(w0 + 0.5 * (t0 + t1) * dw, law)
-        h = (t1 - t0) / 6.0
-        for t, wt in ((t0, h), (0.5 * (t0 + t1), 4.0 * h), (t1, h)):
-            psi, f, k = on_branch(j, w0 + t * dw, law)
-            e += wt * psi
-            ea += wt * (1.0 - t) * f
-            eb += wt * t * f
-            eaa += wt * (1.0 - t) * (1.0 - t) * k
-            eab += wt * t * (1.0 - t) * k
-            ebb += wt * t * t * k
+    t0 = 0.0
+    for t1 in (ta, tb, 1.0):
+        if t1 > 1.0:
+            continue
+        p = _piece(t0, t1, w0, dw, law)
+        e += p[0]
+        ea += p[1]
+        eb += p[2]
+        eaa += p[3]
+        eab += p[4]
+        ebb += p[5]
+        t0 = t1
     return length * e, length * ea, length * eb, length * eaa, length * eab, length * ebb
 
 
-@njit(cache=True)
-def line_height(
-    u: float, phi: float, pz: float, ps: float, z_edge: float, s: float
+@kernel
+def angles(phi1: float, phi2: float) -> Quad:
+    """(cos φ1, sin φ1, cos φ2, sin φ2) of a module's element angles: the kernels below take
+    an element's angle through these, so each angle costs one cos and one sin."""
+    return math.cos(phi1), math.sin(phi1), math.cos(phi2), math.sin(phi2)
+
+
+@kernel
+def _line(
+    u: float, c: float, sn: float, pz: float, ps: float, z_edge: float, s: float
 ) -> tuple[float, float, float]:
-    """(h, ∂h/∂φ, ∂²h/∂φ²): z [mm] at circumferential position s of the element edge line
-    z = z_edge rotated by φ about the pivot (pz, ps) and translated by u (∂h/∂u = 1;
-    :func:`biplan.geometry.chain.line_height`)."""
-    c, sn = math.cos(phi), math.sin(phi)
+    """:func:`line_height` with (c, sn) = (cos φ, sin φ)."""
     tn = sn / c
     sec2 = 1.0 / (c * c)
     dz, ds = z_edge - pz, -ps
@@ -133,33 +189,134 @@ def line_height(
 
 
 @njit(cache=True)
+def line_height(
+    u: float, phi: float, pz: float, ps: float, z_edge: float, s: float
+) -> tuple[float, float, float]:
+    """(h, ∂h/∂φ, ∂²h/∂φ²): z [mm] at circumferential position s of the element edge line
+    z = z_edge rotated by φ about the pivot (pz, ps) and translated by u (∂h/∂u = 1;
+    :func:`biplan.geometry.chain.line_height`)."""
+    return _line(u, math.cos(phi), math.sin(phi), pz, ps, z_edge, s)
+
+
+@kernel
+def pair(t: Quad, element: int) -> tuple[float, float]:
+    """Element ``element``'s pair of a :data:`Quad` (not t[2 e]: a run-time tuple index
+    raises IndexError out of range, an exception path)."""
+    if element == 0:
+        return t[0], t[1]
+    return t[2], t[3]
+
+
+@kernel
+def pivots(ref: np.ndarray, m: int) -> Quad:
+    """(z, s, z, s) [mm] of module m's pivots in the reference table ``ref`` (N, 7, 2): node 0,
+    about which element 1 turns, and node 6, about which element 2 turns."""
+    return ref[m, 0, 0], ref[m, 0, 1], ref[m, 6, 0], ref[m, 6, 1]
+
+
+@kernel
+def edge(
+    u: float, trig: Quad, piv: Quad, element: int, z_edge: float, s: float
+) -> tuple[float, float, float]:
+    """:func:`line_height` of element ``element`` (0 or 1) of a module at u with
+    :func:`angles` ``trig`` and :func:`pivots` ``piv``."""
+    c, sn = pair(trig, element)
+    pz, ps = pair(piv, element)
+    return _line(u, c, sn, pz, ps, z_edge, s)
+
+
+@kernel
+def _turn(
+    u: float, c: float, sn: float, z0: float, s0: float, pz: float, ps: float
+) -> tuple[float, float, float, float, float, float]:
+    """:func:`node` of reference (z0, s0) turned by (c, sn) = (cos φ, sin φ) about (pz, ps)."""
+    dz, ds = z0 - pz, s0 - ps
+    rz, rs = c * dz - sn * ds, sn * dz + c * ds
+    return rz + pz + u, rs + ps, -sn * dz - c * ds, c * dz - sn * ds, -rz, -rs
+
+
+@njit(cache=True, inline="always")
+def rotated(
+    u: float, trig: Quad, ref: np.ndarray, m: int, i: int, element: int
+) -> tuple[float, float, float, float, float, float]:
+    """:func:`node` i of element ``element`` of module m (reference table ``ref`` (N, 7, 2))
+    at u with :func:`angles` ``trig`` (inlined by Numba: callers pass literal node numbers,
+    on which a compiled call would specialise)."""
+    pivot = 0 if element == 0 else 6
+    c, sn = pair(trig, element)
+    return _turn(u, c, sn, ref[m, i, 0], ref[m, i, 1], ref[m, pivot, 0], ref[m, pivot, 1])
+
+
+@njit(cache=True)
 def node(x: np.ndarray, ref: np.ndarray, i: int, element: int) -> tuple:
     """(z, s, ∂z/∂φ, ∂s/∂φ, ∂²z/∂φ², ∂²s/∂φ²) of node i of a module (MODEL §4, SI Eq. 10):
     r = R(φ_e)(r0 − P_e) + P_e + [u, 0], φ_e = x[1 + element]."""
     pivot = 0 if element == 0 else 6
     phi = x[1 + element]
-    c, sn = math.cos(phi), math.sin(phi)
-    dz = ref[i, 0] - ref[pivot, 0]
-    ds = ref[i, 1] - ref[pivot, 1]
-    rz, rs = c * dz - sn * ds, sn * dz + c * ds
-    return (
-        rz + ref[pivot, 0] + x[0],
-        rs + ref[pivot, 1],
-        -sn * dz - c * ds,
-        c * dz - sn * ds,
-        -rz,
-        -rs,
+    return _turn(
+        x[0], math.cos(phi), math.sin(phi), ref[i, 0], ref[i, 1], ref[pivot, 0], ref[pivot, 1]
     )
 
 
-#: (node, element, coefficient, direction 0 = n_c | 1 = n_sp) of the four module rows
-#: g_C = (r_C − r0_C)·n_c, g_F = (r_F − r0_F)·n_c, w0 = (r_E − r_D)·n_sp, wa = (r_F − r_C)·n_sp.
-_ROWS = (
-    ((2, 0, 1.0), (2, 0, 0.0)),
-    ((5, 1, 1.0), (5, 1, 0.0)),
-    ((4, 1, 1.0), (3, 0, -1.0)),
-    ((5, 1, 1.0), (2, 0, -1.0)),
-)
+@njit(cache=True, inline="always")
+def _project(
+    r: tuple,  # type: ignore[type-arg]
+    element: int,
+    sign: float,
+    v0: float,
+    v1: float,
+    row: int,
+    vals: np.ndarray,
+    grad: np.ndarray,
+    hdiag: np.ndarray,
+) -> None:
+    """Adds ± r·v of a :func:`node` r of element ``element`` (with its derivatives in
+    x = (u, φ1, φ2)) to row ``row`` (inlined, as :func:`rotated`)."""
+    z, s, dz, ds, d2z, d2s = r
+    vals[row] += sign * (z * v0 + s * v1)
+    grad[row, 0] += sign * v0
+    grad[row, 1 + element] += sign * (dz * v0 + ds * v1)
+    hdiag[row, 1 + element] += sign * (d2z * v0 + d2s * v1)
+
+
+@kernel
+def rows_into(
+    q: np.ndarray,
+    m: int,
+    ref: np.ndarray,
+    n_c: np.ndarray,
+    n_sp: np.ndarray,
+    vals: np.ndarray,
+    grad: np.ndarray,
+    hdiag: np.ndarray,
+) -> None:
+    """:func:`module_rows` of module m (coordinates q[3m : 3m + 3], tables ``ref`` (N, 7, 2),
+    ``n_c`` and ``n_sp`` (N, 2)) written into ``vals`` (4,), ``grad`` (4, 3) and ``hdiag``
+    (4, 3)::
+
+        g_C = (r_C − r0_C)·n_c,  g_F = (r_F − r0_F)·n_c,  w0 = (r_E − r_D)·n_sp,
+        wa = (r_F − r_C)·n_sp
+
+    with C = node 2 and D = node 3 on element 1, E = node 4 and F = node 5 on element 2.
+    """
+    vals[:] = 0.0
+    grad[:, :] = 0.0
+    hdiag[:, :] = 0.0
+    u = q[3 * m]
+    trig = angles(q[3 * m + 1], q[3 * m + 2])
+    r_c = rotated(u, trig, ref, m, 2, 0)
+    r_d = rotated(u, trig, ref, m, 3, 0)
+    r_e = rotated(u, trig, ref, m, 4, 1)
+    r_f = rotated(u, trig, ref, m, 5, 1)
+    c0, c1, s0, s1 = n_c[m, 0], n_c[m, 1], n_sp[m, 0], n_sp[m, 1]
+    _project(r_c, 0, 1.0, c0, c1, 0, vals, grad, hdiag)
+    vals[0] -= ref[m, 2, 0] * c0 + ref[m, 2, 1] * c1  # guides measure from the reference
+    _project(r_f, 1, 1.0, c0, c1, 1, vals, grad, hdiag)
+    vals[1] -= ref[m, 5, 0] * c0 + ref[m, 5, 1] * c1
+    _project(r_e, 1, 1.0, s0, s1, 2, vals, grad, hdiag)
+    _project(r_d, 0, -1.0, s0, s1, 2, vals, grad, hdiag)
+    _project(r_f, 1, 1.0, s0, s1, 3, vals, grad, hdiag)
+    _project(r_c, 0, -1.0, s0, s1, 3, vals, grad, hdiag)
 
 
 @njit(cache=True)
@@ -168,34 +325,83 @@ def module_rows(
 ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """(values (4,), gradients (4, 3), Hessian diagonals (4, 3)) of (g_C, g_F, w0, wa) [mm]
     of one module in x = (u, φ1, φ2) (SI Eqs. 11 and bound, MODEL K2)."""
-    vals = np.zeros(4)
-    grad = np.zeros((4, 3))
-    hdiag = np.zeros((4, 3))
-    for row in range(4):
-        v = n_c if row < 2 else n_sp
-        for term in range(2):
-            i, e, coef = _ROWS[row][term]
-            if coef == 0.0:
-                continue
-            z, s, dz, ds, d2z, d2s = node(x, ref, i, e)
-            vals[row] += coef * (z * v[0] + s * v[1])
-            grad[row, 0] += coef * v[0]
-            grad[row, 1 + e] += coef * (dz * v[0] + ds * v[1])
-            hdiag[row, 1 + e] += coef * (d2z * v[0] + d2s * v[1])
-        if row < 2:  # guides measure from the reference node
-            i = _ROWS[row][0][0]
-            vals[row] -= ref[i, 0] * v[0] + ref[i, 1] * v[1]
+    vals = np.empty(4)
+    grad = np.empty((4, 3))
+    hdiag = np.empty((4, 3))
+    tables = (  # one module's tables of N = 1
+        np.ascontiguousarray(ref).reshape((1, 7, 2)),
+        np.ascontiguousarray(n_c).reshape((1, 2)),
+        np.ascontiguousarray(n_sp).reshape((1, 2)),
+    )
+    rows_into(x, 0, tables[0], tables[1], tables[2], vals, grad, hdiag)
     return vals, grad, hdiag
 
 
-@njit(cache=True)
-def _edge(
-    x: np.ndarray, ref: np.ndarray, offset: int, element: int, z_edge: float, s: float
-) -> tuple[float, float, float]:
-    """:func:`line_height` of element ``element`` of the module whose coordinates are
-    x[offset : offset + 3]."""
-    pivot = 0 if element == 0 else 6
-    return line_height(x[offset], x[offset + 1 + element], ref[pivot, 0], ref[pivot, 1], z_edge, s)
+@kernel
+def points_into(
+    x: np.ndarray,
+    p_lo: Quad,
+    p_up: Quad,
+    pitch: float,
+    first: int,
+    last: int,
+    points: tuple,  # type: ignore[type-arg]
+    w: np.ndarray,
+    grad: np.ndarray,
+    hdiag: np.ndarray,
+) -> None:
+    """:func:`connector_points` written into rows ``first`` … ``last − 1`` of ``w``, ``grad``
+    and ``hdiag`` (one row per connector point; ``p_lo``, ``p_up``: the :func:`pivots` of the
+    lower and upper module; ``points``: the tables (point_s, upper_element, lower_element,
+    rigid, height, flip)). The seam terms −z_U(0) + z_L(0) are evaluated once."""
+    point_s, upper_element, lower_element, rigid, height, flip = points
+    t_lo, t_up = angles(x[1], x[2]), angles(x[4], x[5])
+    # the seam: z_U(0) and z_L(0) (or the rigid edge's height) with their angle derivatives
+    eu0, el0, rigid0 = upper_element[first], lower_element[first], rigid[first]
+    hu0, hu1, hu2 = edge(x[3], t_up, p_up, eu0, 0.0, point_s[first])
+    hl0 = hl1 = hl2 = 0.0
+    if rigid0:
+        hl0 = height[first]
+    else:
+        hl0, hl1, hl2 = edge(x[0], t_lo, p_lo, el0, pitch, point_s[first])
+    for p in range(first, last):
+        for j in range(7):
+            grad[p, j] = 0.0
+            hdiag[p, j] = 0.0
+        # + z_U(s_k) − z_L(s_k)
+        eu = upper_element[p]
+        h, h1, h2 = edge(x[3], t_up, p_up, eu, 0.0, point_s[p])
+        w[p] = h
+        grad[p, 3] += 1.0
+        grad[p, 4 + eu] += h1
+        hdiag[p, 4 + eu] += h2
+        if rigid[p]:
+            w[p] -= height[p]
+        else:
+            el = lower_element[p]
+            h, h1, h2 = edge(x[0], t_lo, p_lo, el, pitch, point_s[p])
+            w[p] -= h
+            grad[p, 0] -= 1.0
+            grad[p, 1 + el] -= h1
+            hdiag[p, 1 + el] -= h2
+        # − z_U(0) + z_L(0)
+        w[p] -= hu0
+        grad[p, 3] -= 1.0
+        grad[p, 4 + eu0] -= hu1
+        hdiag[p, 4 + eu0] -= hu2
+        w[p] += hl0
+        if not rigid0:
+            grad[p, 0] += 1.0
+            grad[p, 1 + el0] += hl1
+            hdiag[p, 1 + el0] += hl2
+        w[p] += x[6]
+        grad[p, 6] += 1.0
+        if flip[p]:
+            w[p] = 2.0 * x[6] - w[p]
+            for j in range(7):
+                grad[p, j] = -grad[p, j]
+                hdiag[p, j] = -hdiag[p, j]
+            grad[p, 6] += 2.0
 
 
 @njit(cache=True)
@@ -220,34 +426,11 @@ def connector_points(
 
     and 2γ − w at the points marked by ``flip`` (``TpcSign.AS_PRINTED``).
     """
-    n = last - first
-    w = np.zeros(n)
-    grad = np.zeros((n, 7))
-    hdiag = np.zeros((n, 7))
-    for k in range(n):
-        for side, p in ((1.0, first + k), (-1.0, first)):
-            # + z_U(s_k) − z_L(s_k), then − z_U(0) + z_L(0)
-            eu = upper_element[p]
-            h, h1, h2 = _edge(x, ref_upper, 3, eu, 0.0, point_s[p])
-            w[k] += side * h
-            grad[k, 3] += side
-            grad[k, 4 + eu] += side * h1
-            hdiag[k, 4 + eu] += side * h2
-            if rigid[p]:
-                w[k] -= side * height[p]
-            else:
-                el = lower_element[p]
-                h, h1, h2 = _edge(x, ref_lower, 0, el, pitch, point_s[p])
-                w[k] -= side * h
-                grad[k, 0] -= side
-                grad[k, 1 + el] -= side * h1
-                hdiag[k, 1 + el] -= side * h2
-        w[k] += x[6]
-        grad[k, 6] += 1.0
-        if flip[first + k]:
-            w[k] = 2.0 * x[6] - w[k]
-            for j in range(7):
-                grad[k, j] = -grad[k, j]
-                hdiag[k, j] = -hdiag[k, j]
-            grad[k, 6] += 2.0
-    return w, grad, hdiag
+    w = np.empty(last)  # rows first … last − 1 are the connector's
+    grad = np.empty((last, 7))
+    hdiag = np.empty((last, 7))
+    p_lo = (ref_lower[0, 0], ref_lower[0, 1], ref_lower[6, 0], ref_lower[6, 1])  # pivots
+    p_up = (ref_upper[0, 0], ref_upper[0, 1], ref_upper[6, 0], ref_upper[6, 1])
+    points = (point_s, upper_element, lower_element, rigid, height, flip)
+    points_into(x, p_lo, p_up, pitch, first, last, points, w, grad, hdiag)
+    return w[first:], grad[first:], hdiag[first:]

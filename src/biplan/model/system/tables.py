@@ -53,6 +53,11 @@ class SystemData(NamedTuple):
     conn_first_point: np.ndarray  # (Nc + 1,) points of connector c: [first[c], first[c+1])
     conn_first_field: np.ndarray  # (Nc + 1,)
     conn_first_contact: np.ndarray  # (Nc + 1,) into contact_point
+    conn_dofs: np.ndarray  # (Nc, 7) global coordinate of each of x_c's, -1 for the clamp's
+    # (Nc, 4) int: lower element carrying the frame above (-1 none or the clamp), upper and
+    # lower element at the seam, 1 if the seam's lower edge is rigid; and its height [mm]
+    conn_seam: np.ndarray
+    conn_seam_height: np.ndarray  # (Nc,)
     # connector points
     point_s: np.ndarray  # (K,) s [mm]
     point_upper_element: np.ndarray  # (K,)
@@ -126,6 +131,8 @@ def system_data(
     else:
         first_point = first_field = first_contact = np.zeros(1, dtype=np.int64)
         lower = element = np.zeros(0, dtype=np.int64)
+    lower = np.asarray(lower, dtype=np.int64)
+    upper = np.array([c.upper for c in layout.connectors], dtype=np.int64)
     n_cc = nc if minimum else len(t.contact_pt)
     n_q = 3 * n + nc
     segs = np.array([[i0, i1] for _, i0, i1 in t.end_segments], dtype=np.int64)
@@ -151,12 +158,15 @@ def system_data(
         n_sp=n_sp,
         helical=np.asarray(helical, dtype=float).reshape(n, 5),
         circular=np.asarray(circular, dtype=float).reshape(nc, 5),
-        conn_lower=np.asarray(lower, dtype=np.int64),
-        conn_upper=np.array([c.upper for c in layout.connectors], dtype=np.int64),
+        conn_lower=lower,
+        conn_upper=upper,
         conn_element=np.asarray(element, dtype=np.int64),
         conn_first_point=np.asarray(first_point, dtype=np.int64),
         conn_first_field=np.asarray(first_field, dtype=np.int64),
         conn_first_contact=np.asarray(first_contact, dtype=np.int64),
+        conn_dofs=_connector_dofs(n, lower, upper),
+        conn_seam=_seam_rows(t, first_point, np.where(lower < 0, -1, element)),
+        conn_seam_height=(t.pt_lo_height[first_point[:-1]] * pitch).astype(float),
         point_s=s_values[t.pt_s].astype(float),
         point_upper_element=t.pt_up_el.astype(np.int64),
         point_lower_element=t.pt_lo_el.astype(np.int64),
@@ -192,3 +202,23 @@ def _load_weights(point: LoadPoint, ref_top: np.ndarray, segs: np.ndarray, ratio
         w[segs[0, 0]] += 1.0 - ratio
         w[segs[0, 1]] += ratio
     return w
+
+
+def _connector_dofs(n: int, lower: np.ndarray, upper: np.ndarray) -> np.ndarray:
+    """(Nc, 7): x_c = (u, φ1, φ2 of the lower module, u, φ1, φ2 of the upper one, γ_c) as
+    global coordinates of q = (modules' (u, φ1, φ2)…, γ…), -1 for the clamp's."""
+    out = np.empty((len(upper), 7), dtype=np.int64)
+    for c in range(len(upper)):
+        for k in range(3):
+            out[c, k] = -1 if lower[c] < 0 else 3 * lower[c] + k
+            out[c, 3 + k] = 3 * upper[c] + k
+        out[c, 6] = 3 * n + c
+    return out
+
+
+def _seam_rows(t: chain.Tables, first_point: np.ndarray, frame: np.ndarray) -> np.ndarray:
+    """``conn_seam`` (Nc, 4): each connector's frame element (``frame``) and, at its seam (its
+    first point), the upper and lower element and whether the lower edge is rigid."""
+    seam = first_point[:-1]
+    rows = [frame, t.pt_up_el[seam], t.pt_lo_el[seam], t.pt_lo_rigid[seam]]
+    return np.stack(rows, axis=1).astype(np.int64).reshape(-1, 4)
