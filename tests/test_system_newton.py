@@ -32,7 +32,7 @@ def test_compiled_newton_takes_the_jax_iterates(model6, reference6, case):
         method.atol, method.max_steps, method.max_backtracks, method.armijo, method.free_steps
     )
     z, _, _, jac, steps, status = iteration.newton(
-        system.data, system.load, reference6.z, s, iteration.NO_BORDER, 0.0
+        system.data, system.load, reference6.z, s, iteration.NO_BORDER, 0.0, iteration.NO_STEP
     )
     out, _ = solve_loop.compiled(model6.layout)(
         model6.params, reference6.z, load.for_kernel(), method.settings()

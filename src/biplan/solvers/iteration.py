@@ -8,7 +8,8 @@ free steps (Chamberlain et al. 1982). The start enters as the first trial point 
 accepted when finite); the Jacobian is evaluated at accepted points only. Settings arrive as
 one array built from :class:`~biplan.solvers.Newton` (:func:`settings_array`).
 
-The system R(x) = 0 is the KKT system r(z) = 0 at a load, or, with a border row, the bordered
+The system R(x) = 0 is the KKT system r(z) = 0 at a load (plus, in a time step, the inertia
+rows of :func:`biplan.model.system.inertia.add_inertia`), or, with a border row, the bordered
 system of path following (x = [z, Λ], load (c_F Λ, c_U Λ, d))::
 
     R(x) = [r(z, Λ),  row_zᵀ z + row_Λ Λ − ρ],   ∂R/∂x = [[∂r/∂z, ∂r/∂Λ], [row_zᵀ, row_Λ]]
@@ -24,6 +25,7 @@ from numba import njit
 
 from biplan.model.system.assemble import evaluate
 from biplan.model.system.chainterm import load_point
+from biplan.model.system.inertia import add_inertia
 from biplan.model.system.tables import SystemData
 from biplan.solvers.core_settings import Status
 
@@ -37,6 +39,8 @@ _NONFINITE = Status.NONFINITE.value
 
 #: No border row: the KKT system itself.
 NO_BORDER = np.zeros(0)
+#: No time step: the static system (else :func:`biplan.model.system.inertia.step_data`).
+NO_STEP = np.zeros(0)
 
 
 def settings_array(
@@ -60,12 +64,15 @@ def system(
     border: np.ndarray,
     rho: float,
     second: bool,
+    step: np.ndarray,
 ) -> tuple[np.ndarray, np.ndarray]:
     """(R(x), ∂R/∂x or (0, 0)): the KKT system at ``load`` when ``border`` is empty, else the
     bordered system with ``load`` the control coefficients (c_F, c_U, d) and ``border`` the
     row (row_z, row_Λ) (module docstring)."""
     if border.shape[0] == 0:
         out = evaluate(d, x, load, second)
+        if step.shape[0]:  # the inertia rows of a time step (solvers.step_loop)
+            add_inertia(d, x[: d.sizes[0]], step, out[0], out[1], second)
         return out[0], out[1]
     n = x.shape[0] - 1
     lam = x[n]
@@ -126,10 +133,13 @@ def newton(
     settings: np.ndarray,
     border: np.ndarray,
     rho: float,
+    step: np.ndarray,
 ) -> tuple:  # type: ignore[type-arg]
-    """Solve R(z) = 0 of the system (d, load, border, ρ) from z0 (:func:`system`); the KKT
-    system with ``border`` = :data:`NO_BORDER`. (No default arguments: Numba keys an omitted
-    array default by its identity, so a function with one is never found in the cache.)
+    """Solve R(z) = 0 of the system (d, load, border, ρ, step) from z0 (:func:`system`); the
+    KKT system with ``border`` = :data:`NO_BORDER` and ``step`` = :data:`NO_STEP`, a time step
+    of :mod:`biplan.solvers.step_loop` with its step data. (No default arguments: Numba keys
+    an omitted array default by its identity, so a function with one is never found in the
+    cache.)
 
     Returns (z, R, merit f, Jacobian at z, steps, status); the Jacobian is the one at z once a
     pass was accepted (finite f).
@@ -150,7 +160,7 @@ def newton(
     best_z, best_r, best_f, best_jac, best_dz, best_lm = z.copy(), r.copy(), np.inf, jac, dz, False
     while status < 0 and evals < max_evals:
         zt = z + alpha * dz
-        rt = system(d, zt, load, border, rho, False)[0]
+        rt = system(d, zt, load, border, rho, False, step)[0]
         ft = 0.5 * (rt @ rt)
         if not np.isfinite(ft):
             ft = np.inf
@@ -160,7 +170,7 @@ def newton(
         damping_r = damping * 10.0 if lm else damping
         was_finite = np.isfinite(f)
         if accept:
-            jt = system(d, zt, load, border, rho, True)[1]
+            jt = system(d, zt, load, border, rho, True, step)[1]
             dz_n = _solve(jt, -rt)
             newton_ok = _finite(dz_n)
             if newton_ok or with_lm:

@@ -194,31 +194,6 @@ def _circular_fractions(d: SystemData, q: np.ndarray, out: np.ndarray) -> None:
 
 
 @njit(cache=True)
-def _edge_stats(segs: np.ndarray, seam: bool) -> tuple[float, float, float]:
-    """Mean z, mean s [mm] and tilt θ [rad] of the free-end edge from its segment ends
-    (S, 2, 2) (:func:`biplan.model.system._edge_observables`)."""
-    if seam:
-        z0, s0 = segs[0, 0, 0], segs[0, 0, 1]
-        z1, s1 = segs[0, 1, 0], segs[0, 1, 1]
-        return z0, s0, math.atan(-(z1 - z0) / (s1 - s0))
-    total = zm = sm = ss = zs = 0.0
-    for j in range(segs.shape[0]):
-        z0, s0 = segs[j, 0, 0], segs[j, 0, 1]
-        z1, s1 = segs[j, 1, 0], segs[j, 1, 1]
-        length = math.hypot(z1 - z0, s1 - s0)
-        total += length
-        zm += length * (z0 + z1) / 2
-        sm += length * (s0 + s1) / 2
-        ss += length * (s0 * s0 + s0 * s1 + s1 * s1) / 3
-        zs += length * (2 * z0 * s0 + z0 * s1 + z1 * s0 + 2 * z1 * s1) / 6
-    zm /= total
-    sm /= total
-    ss = ss / total - sm * sm
-    zs = zs / total - zm * sm
-    return zm, sm, math.atan(-zs / ss)
-
-
-@njit(cache=True)
 def _observation(
     d: SystemData,
     z: np.ndarray,
@@ -258,9 +233,7 @@ def _observation(
     active[n_g + n_c] = control
     lam_min, dof = min_reduced_eigenvalue(np.ascontiguousarray(jac[:n_q, :n_q]), a, active)
     # endpoint relative to q = 0
-    seam = d.flags[1] == 1
-    now = _edge_stats(chainterm.edge_points(d, q), seam)
-    ref = _edge_stats(chainterm.edge_points(d, np.zeros(n_q)), seam)
+    u_z, u_r, theta = chainterm.endpoint(d, q)
     # energies and branch fractions, helical folds then circular
     fold_energy = np.empty(n + nc)
     fold_energy[:n] = e_hel
@@ -273,9 +246,9 @@ def _observation(
     return (
         -z[n_z - 1] if control else load[0],
         zp,
-        now[0] - ref[0],
-        now[1] - ref[1],
-        now[2] - ref[2],
+        u_z,
+        u_r,
+        theta,
         e_hel.sum() + e_circ.sum(),
         fold_energy,
         fractions,

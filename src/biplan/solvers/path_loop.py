@@ -23,7 +23,7 @@ from numba import njit, prange
 
 from biplan.model.system.tables import SystemData
 from biplan.solvers.core_settings import Status
-from biplan.solvers.iteration import newton
+from biplan.solvers.iteration import NO_STEP, newton
 
 __all__ = [
     "COMPLETED",
@@ -66,7 +66,7 @@ def corrector(
     x0[:n] = z0
     x0[n] = load_parameter0
     settings = np.array([atol, max_iterations, DAMPED_BACKTRACKS, 1e-4, 0.0, 0.0])
-    x, _, _, jac, steps, status = newton(d, ctl, x0, settings, row, rho)
+    x, _, _, jac, steps, status = newton(d, ctl, x0, settings, row, rho, NO_STEP)
     return (
         x[:n],
         x[n],

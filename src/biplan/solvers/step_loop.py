@@ -13,10 +13,9 @@ t_{n+1} plus the inertia and Rayleigh forces M(q)(q̈ + α_R q̇) + c(q, q̇) in
 (:func:`biplan.model.system.inertia.add_inertia`), and its Jacobian the static KKT Jacobian
 plus the exact derivative of the inertia rows (as the JAX kernel's autodiff: ∂M/∂q and the
 derivative of the velocity-quadratic force included; dropping them, a modified Newton, fails
-in violent snaps). The iteration is the plain damped Newton of the time step
-(:func:`biplan.solvers.strategies.damped`: Armijo c = 1e-4, 12 halvings, no
-Levenberg–Marquardt fallback), the iterates of :func:`biplan.solvers.iteration.newton` with
-those settings.
+in violent snaps). The iteration is :func:`biplan.solvers.iteration.newton` on that system,
+as the plain damped Newton of the time step (Armijo c = 1e-4, 12 halvings, no
+Levenberg–Marquardt fallback).
 
 :func:`trajectory` runs the driver's chunks of :data:`CHUNK_STEPS` steps: a failed step (no
 convergence, a non-finite state, or energy created by the step, see :func:`step`) freezes the
@@ -29,12 +28,13 @@ from __future__ import annotations
 import numpy as np
 from numba import njit
 
-from biplan.model.system.assemble import evaluate, observe
-from biplan.model.system.inertia import add_inertia, kinetic_and_work, kinetic_energy, step_data
+from biplan.model.system.assemble import observe
+from biplan.model.system.inertia import kinetic_and_work, kinetic_energy, step_data
 from biplan.model.system.tables import SystemData
 from biplan.solvers.core_settings import Status
+from biplan.solvers.iteration import NO_BORDER, newton
 
-__all__ = ["CHUNK_STEPS", "COMPLETED", "STEP_FAILED", "dynamic_system", "step", "trajectory"]
+__all__ = ["CHUNK_STEPS", "COMPLETED", "STEP_FAILED", "step", "trajectory"]
 
 #: Time steps per chunk (as :data:`biplan.solvers._dynkernel.CHUNK_STEPS`).
 CHUNK_STEPS = 32
@@ -44,99 +44,6 @@ DAMPED_BACKTRACKS = 12
 COMPLETED, STEP_FAILED = 0, 1
 
 _CONVERGED = Status.CONVERGED.value
-_MAX_STEPS = Status.MAX_STEPS.value
-_FAILED = Status.LINE_SEARCH_FAILED.value
-_NONFINITE = Status.NONFINITE.value
-
-
-@njit(cache=True)
-def dynamic_system(
-    d: SystemData, z: np.ndarray, load: np.ndarray, data: np.ndarray, second: bool
-) -> tuple[np.ndarray, np.ndarray]:
-    """(R(z), ∂R/∂z or (0, 0)): the KKT system at ``load`` with the inertia rows of the step
-    ``data`` (:func:`biplan.model.system.inertia.step_data`); the signature of
-    :func:`biplan.solvers.iteration.system` without a border."""
-    out = evaluate(d, z, load, second)
-    r, jac = out[0], out[1]
-    add_inertia(d, z[: d.sizes[0]], data, r, jac, second)
-    return r, jac
-
-
-@njit(cache=True)
-def _solve(a: np.ndarray, b: np.ndarray) -> np.ndarray:
-    """a⁻¹ b by LU; NaN where a is singular."""
-    try:
-        return np.linalg.solve(a, b)
-    except Exception:
-        return np.full(b.shape[0], np.nan)
-
-
-@njit(cache=True)
-def _newton(
-    d: SystemData,
-    load: np.ndarray,
-    z0: np.ndarray,
-    settings: np.ndarray,
-    data: np.ndarray,
-) -> tuple:  # type: ignore[type-arg]
-    """Damped Newton on :func:`dynamic_system` from z0: the iterates of
-    :func:`biplan.solvers.iteration.newton` with the Levenberg–Marquardt fallback and the
-    watchdog off (settings[4] = settings[5] = 0), the branches it then takes; the Jacobian is
-    evaluated with the residual at every trial point (one pass where nearly every trial point
-    is accepted). Returns (z, R, merit f, Jacobian at z, steps, status)."""
-    atol, max_steps, max_bt, c_arm = settings[0], int(settings[1]), int(settings[2]), settings[3]
-    alpha_min = 0.5**max_bt
-    max_evals = max(max_steps, 1) * (max_bt + 1)
-    n = z0.shape[0]
-    z = z0.copy()
-    r = np.zeros(n)
-    f = np.inf
-    jac = np.eye(n)
-    dz = np.zeros(n)
-    slope, alpha = 0.0, 0.0
-    steps, evals, status = 0, 0, -1
-    while status < 0 and evals < max_evals:
-        zt = z + alpha * dz
-        # the residual with its Jacobian (the residual does not depend on ``second``): one
-        # pass at the accepted points, most trial points
-        rt, jt = dynamic_system(d, zt, load, data, True)
-        ft = 0.5 * (rt @ rt)
-        if not np.isfinite(ft):
-            ft = np.inf
-        accept = ft <= f + c_arm * alpha * slope
-        accept = (accept or not np.isfinite(f)) and np.isfinite(ft)
-        was_finite = np.isfinite(f)
-        if accept:
-            dz_n = _solve(jt, -rt)
-            if not np.all(np.isfinite(dz_n)):  # a singular Newton system ends the iteration
-                status = _FAILED
-            z, r, f, jac, dz = zt, rt, ft, jt, dz_n
-            slope = float(rt @ (jt @ dz_n))
-            alpha = 1.0
-            if was_finite:
-                steps += 1
-            if np.max(np.abs(rt)) < atol:
-                status = _CONVERGED
-            elif status == _FAILED:
-                pass
-            elif steps >= max_steps:
-                status = _MAX_STEPS
-        else:
-            if alpha * 0.5 < alpha_min:  # halvings spent: the damped Newton fails here
-                status = _FAILED
-            else:
-                alpha = 0.5 * alpha
-            slope = float(r @ (jac @ dz))
-            if status == _FAILED:
-                pass
-            elif steps >= max_steps:
-                status = _MAX_STEPS
-        evals += 1
-    if status < 0:
-        status = _MAX_STEPS
-    if not np.isfinite(f):
-        status = _NONFINITE
-    return z, r, f, jac, steps, status
 
 
 @njit(cache=True)
@@ -203,7 +110,7 @@ def step(
     z0 = z_n.copy()
     z0[:n_q] = q_n + h * v_n + 0.5 * h**2 * qdd_n
     newton_settings = np.array([settings[6], settings[7], DAMPED_BACKTRACKS, 1e-4, 0.0, 0.0])
-    z, _, _, _, steps, status = _newton(d, load, z0, newton_settings, data)
+    z, _, _, _, steps, status = newton(d, load, z0, newton_settings, NO_BORDER, 0.0, data)
     q = z[:n_q]
     a_new = (q - q_n - h * v_n - h**2 * (0.5 - beta) * a_n) / (beta * h**2)
     v_new = v_n + h * (1.0 - gamma) * a_n + h * gamma * a_new

@@ -124,13 +124,8 @@ class System:
 
     def endpoint(self, q: np.ndarray) -> tuple[float, float, float]:
         """(u_z [mm], u_r [mm], θ [rad]) of the free end relative to q = 0 (MODEL R2)."""
-        now = _edge_observables(
-            chainterm.edge_points(self.data, np.asarray(q, dtype=float)), self.data
-        )
-        ref = _edge_observables(
-            chainterm.edge_points(self.data, np.zeros(self.sizes[0])), self.data
-        )
-        return now[0] - ref[0], now[1] - ref[1], now[2] - ref[2]
+        u_z, u_r, theta = chainterm.endpoint(self.data, np.asarray(q, dtype=float))
+        return float(u_z), float(u_r), float(theta)
 
     def state(self, z: np.ndarray, jac: np.ndarray | None = None) -> Any:
         """The :class:`~biplan.model.lagrangian.StateData` at z (K, G and C taken from the KKT
@@ -173,19 +168,3 @@ def _announce_compile() -> None:
             file=sys.stderr,
             flush=True,
         )
-
-
-def _edge_observables(segs: np.ndarray, data: SystemData) -> tuple[float, float, float]:
-    """Mean z, mean s and tilt θ of the free-end edge (:func:`biplan.geometry.chain._edge_stats`
-    for ``EndpointDefinition.EDGE``; the seam node and its segment's slope otherwise)."""
-    if data.flags[1] == 1:
-        p0, p1 = segs[0, 0], segs[0, 1]
-        return p0[0], p0[1], float(np.arctan(-(p1[0] - p0[0]) / (p1[1] - p0[1])))
-    z0, z1, s0, s1 = segs[:, 0, 0], segs[:, 1, 0], segs[:, 0, 1], segs[:, 1, 1]
-    length = np.hypot(z1 - z0, s1 - s0)
-    total = length.sum()
-    zm = (length * (z0 + z1) / 2).sum() / total
-    sm = (length * (s0 + s1) / 2).sum() / total
-    ss = (length * (s0**2 + s0 * s1 + s1**2) / 3).sum() / total - sm**2
-    zs = (length * (2 * z0 * s0 + z0 * s1 + z1 * s0 + 2 * z1 * s1) / 6).sum() / total - zm * sm
-    return float(zm), float(sm), float(np.arctan(-zs / ss))

@@ -29,7 +29,7 @@ from numba import njit
 from biplan.model.system.elements import Quad, angles, edge, kernel, pair, pivots, rotated
 from biplan.model.system.tables import SystemData
 
-__all__ = ["edge_points", "load_point", "reference_height"]
+__all__ = ["edge_points", "edge_statistics", "endpoint", "load_point", "reference_height"]
 
 
 @kernel
@@ -373,3 +373,39 @@ def edge_points(d: SystemData, q: np.ndarray) -> np.ndarray:  # type: ignore[typ
             out[j, end, 0] = pz + ct * z - st * s
             out[j, end, 1] = ps + st * z + ct * s
     return out
+
+
+@njit(cache=True)
+def edge_statistics(segs: np.ndarray, seam: bool) -> tuple[float, float, float]:
+    """Mean z, mean s [mm] and tilt θ [rad] of the free-end edge from its segment ends
+    (S, 2, 2): the length-weighted means and least-squares tilt (``EndpointDefinition.EDGE``,
+    :func:`biplan.geometry.chain._edge_stats`), or the seam node and its segment's slope
+    (``seam``, ``SEAM_NODE``)."""
+    if seam:
+        z0, s0 = segs[0, 0, 0], segs[0, 0, 1]
+        z1, s1 = segs[0, 1, 0], segs[0, 1, 1]
+        return z0, s0, math.atan(-(z1 - z0) / (s1 - s0))
+    total = zm = sm = ss = zs = 0.0
+    for j in range(segs.shape[0]):
+        z0, s0 = segs[j, 0, 0], segs[j, 0, 1]
+        z1, s1 = segs[j, 1, 0], segs[j, 1, 1]
+        length = math.hypot(z1 - z0, s1 - s0)
+        total += length
+        zm += length * (z0 + z1) / 2
+        sm += length * (s0 + s1) / 2
+        ss += length * (s0 * s0 + s0 * s1 + s1 * s1) / 3
+        zs += length * (2 * z0 * s0 + z0 * s1 + z1 * s0 + 2 * z1 * s1) / 6
+    zm /= total
+    sm /= total
+    ss = ss / total - sm * sm
+    zs = zs / total - zm * sm
+    return zm, sm, math.atan(-zs / ss)
+
+
+@njit(cache=True)
+def endpoint(d: SystemData, q: np.ndarray) -> tuple[float, float, float]:
+    """(u_z [mm], u_r [mm], θ [rad]) of the free end relative to q = 0 (MODEL R2)."""
+    seam = d.flags[1] == 1
+    now = edge_statistics(edge_points(d, q), seam)
+    ref = edge_statistics(edge_points(d, np.zeros(d.sizes[0])), seam)
+    return now[0] - ref[0], now[1] - ref[1], now[2] - ref[2]
