@@ -42,7 +42,7 @@ from biplan.model.potential import (
     guide_values,
     load_height,
 )
-from biplan.model.system import System, is_supported
+from biplan.model.system import System, is_supported, supports_rest
 from biplan.model.tube import Tube
 from biplan.options import ModelOptions
 
@@ -165,6 +165,17 @@ class Model:
         (:func:`~biplan.model.system.is_supported`)."""
         if not is_supported(self.layout):
             return None
+        return self._compiled_system(load)
+
+    def system_at_rest(self) -> System | None:
+        """:meth:`system` at zero end load, which also covers R3 ``EDGE_FIT``
+        (:func:`~biplan.model.system.supports_rest`; a :attr:`~biplan.model.system.System.rest_only`
+        system there), or None where the chain readings are not covered."""
+        if not supports_rest(self.layout):
+            return None
+        return self._compiled_system(None)
+
+    def _compiled_system(self, load: Load | None) -> System:
         cached = self.__dict__.get("_system")
         if cached is None or cached[0] is not self.params:  # a copy with other parameters
             p = self.params

@@ -55,6 +55,7 @@ __all__ = [
     "observe_state",
     "observe_states",
     "observe_states_serial",
+    "phase_fractions",
 ]
 
 #: A contact is active when its multiplier exceeds this [N] and its gap is below ACTIVE_GAP [mm]
@@ -194,6 +195,27 @@ def _circular_fractions(d: SystemData, q: np.ndarray, out: np.ndarray) -> None:
 
 
 @njit(cache=True)
+def _fractions(d: SystemData, q: np.ndarray, gaps: np.ndarray) -> np.ndarray:  # type: ignore[type-arg]
+    """(N + Nc, 3) branch fractions of every fold, helical then circular, at q with gaps w_∂."""
+    n, nc = d.ref.shape[0], d.conn_upper.shape[0]
+    fractions = np.zeros((n + nc, 3))
+    for i in range(n):  # helical boundary elongations (w0, wa) are the module's gaps
+        _segment_fractions(gaps[2 * i], gaps[2 * i + 1], d.helical[i], fractions[i])
+    if nc:
+        _circular_fractions(d, q, fractions[n:])
+    return fractions
+
+
+@njit(cache=True)
+def phase_fractions(d: SystemData, q: np.ndarray) -> np.ndarray:  # type: ignore[type-arg]
+    """The fraction of every fold's length on the closed, spinodal and open branch of its law,
+    (N + Nc, 3), helical folds then circular (:func:`biplan.model.potential.phase_fractions`)."""
+    n_g, n_c = d.sizes[1], d.sizes[2]
+    gaps = assemble.terms(d, q, np.zeros(n_g), np.zeros(n_c), False)[3]
+    return _fractions(d, q, gaps)
+
+
+@njit(cache=True)
 def _observation(
     d: SystemData,
     z: np.ndarray,
@@ -238,11 +260,7 @@ def _observation(
     fold_energy = np.empty(n + nc)
     fold_energy[:n] = e_hel
     fold_energy[n:] = e_circ
-    fractions = np.zeros((n + nc, 3))
-    for i in range(n):  # helical boundary elongations (w0, wa) are the module's gaps
-        _segment_fractions(gaps[2 * i], gaps[2 * i + 1], d.helical[i], fractions[i])
-    if nc:
-        _circular_fractions(d, q, fractions[n:])
+    fractions = _fractions(d, q, gaps)
     return (
         -z[n_z - 1] if control else load[0],
         zp,
@@ -290,8 +308,7 @@ def observe_state(
     n_q, n_g, n_c = d.sizes[0], d.sizes[1], d.sizes[2]
     q = z[:n_q]
     t = assemble.terms(d, q, z[n_q : n_q + n_g], z[n_q + n_g : n_q + n_g + n_c], False)
-    grad = np.zeros(n_q)
-    zp = chainterm.load_point(d, q, grad, np.zeros((0, 0)), 0.0, False) - d.load_reference[0]
+    zp = chainterm.load_height(d, q) - d.load_reference[0]
     return _observation(d, z, load, jac, t[2], t[3], t[6], t[7], zp, weak_contacts)
 
 
@@ -300,10 +317,7 @@ def _observe_one(d: SystemData, z: np.ndarray, load: np.ndarray, weak_contacts: 
     """:func:`observe_state` of z with its Jacobian assembled here."""
     _, jac, zp, _, t = assemble.evaluate(d, z, load, True)
     if load[0] == 0.0 and load[2] == 0.0:  # at rest, evaluate skips the load point
-        n_q = d.sizes[0]
-        grad = np.zeros(n_q)
-        zp = chainterm.load_point(d, z[:n_q], grad, np.zeros((0, 0)), 0.0, False)
-        zp -= d.load_reference[0]
+        zp = chainterm.load_height(d, z[: d.sizes[0]]) - d.load_reference[0]
     return _observation(d, z, load, jac, t[2], t[3], t[6], t[7], zp, weak_contacts)
 
 

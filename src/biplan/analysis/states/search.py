@@ -41,6 +41,7 @@ from biplan.analysis.states.labels import bistable_folds, bits_to_label, label_t
 from biplan.analysis.states.seeding import Search, fold_vector_index, relax_seeds, seed_targets
 from biplan.model.assembly import Load, Model
 from biplan.model.potential import phase_fractions
+from biplan.solvers import observation
 from biplan.solvers.newton import Solution, Status, solve_equilibrium
 
 if TYPE_CHECKING:
@@ -60,7 +61,11 @@ def state_bits(model: Model, q: np.ndarray) -> tuple[int, ...]:
     """Fold-state bits of coordinates ``q`` (free end first,
     :func:`~biplan.analysis.states.labels.bistable_folds`): 1 where the open branch occupies more of
     the fold's length than the closed one (SI, "Construction of a state transition diagram")."""
-    frac = np.asarray(phase_fractions(model.layout, model.params, jnp.asarray(q)))
+    system = model.system_at_rest()
+    if system is not None:
+        frac = observation.phase_fractions(system.data, np.asarray(q, dtype=float))
+    else:
+        frac = np.asarray(phase_fractions(model.layout, model.params, jnp.asarray(q)))
     index = [fold_vector_index(model, f) for f in bistable_folds(model.tube)]
     return tuple(int(frac[i, 2] > frac[i, 0]) for i in index)
 

@@ -34,9 +34,12 @@ from biplan._compile.setup import jnp
 from biplan._errors import ConfigError
 from biplan.geometry import FoldRef
 from biplan.model.assembly import Model
+from biplan.model.system import SystemData
 from biplan.model.tube import Tube
+from biplan.solvers import observation, relax_loop
 from biplan.solvers._relaxkernel import relax_pool
 from biplan.solvers.core_settings import Status
+from biplan.solvers.iteration import settings_array
 from biplan.solvers.observe import observe_batch
 
 if TYPE_CHECKING:
@@ -154,6 +157,9 @@ def relax_seeds(
     costs nothing), so every block reuses one compilation; ``progress(done, total)`` is called
     after each block.
     """
+    system = model.system_at_rest()
+    if system is not None:
+        return _relax_compiled(system.data, target, mask, settings, progress)
     lanes = min(settings.lanes, settings.chunk)
     fn = relax_pool.compiled(model.layout, lanes)
     stiffness = jnp.asarray(float(settings.penalty_stiffness))
@@ -178,6 +184,39 @@ def relax_seeds(
         zs.append(np.asarray(out.z)[: hi - lo])
         status.append(np.asarray(out.status)[: hi - lo])
         residual.append(np.asarray(out.residual)[: hi - lo])
+        if progress is not None:
+            progress(hi, k)
+    return np.concatenate(zs), np.concatenate(status), np.concatenate(residual)
+
+
+def _relax_compiled(
+    data: SystemData,
+    target: np.ndarray,
+    mask: np.ndarray,
+    settings: Enumeration,
+    progress: Progress | None,
+) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """:func:`relax_seeds` on the compiled system (:func:`biplan.solvers.relax_loop.relax_seeds`,
+    the seeds of a block of ``settings.chunk`` in parallel)."""
+    newton = settings.newton
+    method = settings_array(
+        newton.atol, newton.max_steps, newton.max_backtracks, newton.armijo, newton.free_steps
+    )
+    k, chunk = len(target), settings.chunk
+    zs, status, residual = [], [], []
+    for lo in range(0, k, chunk):
+        hi = min(lo + chunk, k)
+        z, s, r, _ = relax_loop.relax_seeds(
+            data,
+            np.ascontiguousarray(target[lo:hi], dtype=float),
+            np.ascontiguousarray(mask[lo:hi], dtype=float),
+            float(settings.penalty_stiffness),
+            int(settings.max_iterations),
+            method,
+        )
+        zs.append(z)
+        status.append(s)
+        residual.append(r)
         if progress is not None:
             progress(hi, k)
     return np.concatenate(zs), np.concatenate(status), np.concatenate(residual)
@@ -237,7 +276,12 @@ def evaluate(
     rep = merge_rows(z[:, : model.layout.n_coordinates], finite, SHARED_OBSERVATION)
     rep = np.where(finite, rep, np.arange(len(z)))
     observed = np.flatnonzero(rep == np.arange(len(z)))
-    obs = observe_batch(model.layout, model.params, z[observed], None)
+    system = model.system_at_rest()
+    if system is not None:
+        weak = model.options.weak_contacts_active
+        obs = observation.observe(system, z[observed], None, weak)
+    else:
+        obs = observe_batch(model.layout, model.params, z[observed], None)
     position = np.zeros(len(z), dtype=np.int64)
     position[observed] = np.arange(len(observed))
     obs = type(obs)(*(np.asarray(v)[position[rep]] for v in obs))

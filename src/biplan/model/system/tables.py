@@ -17,6 +17,8 @@ import numpy as np
 from biplan.geometry import chain, frames
 from biplan.geometry.layout import TubeLayout
 from biplan.options import (
+    ChainAttachment,
+    ChainOffset,
     ContactForm,
     EndpointDefinition,
     LoadPoint,
@@ -24,7 +26,7 @@ from biplan.options import (
     ModuleKind,
 )
 
-__all__ = ["SystemData", "is_supported", "system_data"]
+__all__ = ["SystemData", "is_supported", "supports_rest", "system_data"]
 
 
 class SystemData(NamedTuple):
@@ -37,9 +39,9 @@ class SystemData(NamedTuple):
     # sizes (n_q, n_g, n_c) and scalar numbers
     sizes: np.ndarray  # (3,) int: n_q, n_g, n_c
     scalars: np.ndarray  # (7,) l, H, a, ε, c (contact compliance), τ (smooth minimum), H1
-    flags: (
-        np.ndarray
-    )  # (2,) int: contact form (0 per endpoint, 1 minimum), endpoint (0 edge, 1 seam)
+    # (3,) int: contact form (0 per endpoint, 1 minimum), endpoint (0 edge, 1 seam),
+    # attachment (0 element, 1 edge fit: the frames at rest only, :func:`supports_rest`)
+    flags: np.ndarray
     # modules
     ref: np.ndarray  # (N, 7, 2) reference nodes in each module frame
     n_c: np.ndarray  # (N, 2) crease tangent
@@ -58,6 +60,9 @@ class SystemData(NamedTuple):
     # lower element at the seam, 1 if the seam's lower edge is rigid; and its height [mm]
     conn_seam: np.ndarray
     conn_seam_height: np.ndarray  # (Nc,)
+    # (Nc, 2, 2, 2) node indices of the lower and the upper module's edge segments (up to 2
+    # segments, start and end node; -1 none) fitted under R3 EDGE_FIT
+    conn_edges: np.ndarray
     # connector points
     point_s: np.ndarray  # (K,) s [mm]
     point_upper_element: np.ndarray  # (K,)
@@ -77,9 +82,17 @@ class SystemData(NamedTuple):
 
 
 def is_supported(layout: TubeLayout) -> bool:
-    """Whether the compiled kernels cover the layout's chain readings (R1 ``EXACT`` with R3
-    ``ELEMENT``, the defaults, or no connector); other chain readings use the JAX model."""
+    """Whether the compiled kernels cover the layout's chain readings under load (R1 ``EXACT``
+    with R3 ``ELEMENT``, the defaults, or no connector); other chain readings use the JAX
+    model."""
     return layout.n_connectors == 0 or frames.scannable(layout)
+
+
+def supports_rest(layout: TubeLayout) -> bool:
+    """Whether the compiled kernels cover the layout at rest (zero end load): the chain then
+    enters only through the free end's position (its frames, values only), which they compose
+    under R1 ``EXACT`` with R3 ``ELEMENT`` or ``EDGE_FIT``."""
+    return layout.n_connectors == 0 or layout.options.chain_offset is ChainOffset.EXACT
 
 
 def _reference(kind: ModuleKind, mirror: MirrorConvention, l: float, h: float, h1: float):  # type: ignore[no-untyped-def]
@@ -150,7 +163,11 @@ def system_data(
             ]
         ),
         flags=np.array(
-            [1 if minimum else 0, 0 if opts.endpoint is EndpointDefinition.EDGE else 1],
+            [
+                1 if minimum else 0,
+                0 if opts.endpoint is EndpointDefinition.EDGE else 1,
+                1 if opts.chain_attachment is ChainAttachment.EDGE_FIT else 0,
+            ],
             dtype=np.int64,
         ),
         ref=ref,
@@ -167,6 +184,7 @@ def system_data(
         conn_dofs=_connector_dofs(n, lower, upper),
         conn_seam=_seam_rows(t, first_point, np.where(lower < 0, -1, element)),
         conn_seam_height=(t.pt_lo_height[first_point[:-1]] * pitch).astype(float),
+        conn_edges=_edge_table(layout),
         point_s=s_values[t.pt_s].astype(float),
         point_upper_element=t.pt_up_el.astype(np.int64),
         point_lower_element=t.pt_lo_el.astype(np.int64),
@@ -202,6 +220,17 @@ def _load_weights(point: LoadPoint, ref_top: np.ndarray, segs: np.ndarray, ratio
         w[segs[0, 0]] += 1.0 - ratio
         w[segs[0, 1]] += ratio
     return w
+
+
+def _edge_table(layout: TubeLayout) -> np.ndarray:
+    """``conn_edges`` (Nc, 2, 2, 2): the (start, end) nodes of the segments of each
+    connector's lower edge (none at the clamp) and upper edge, -1 where there is none."""
+    out = np.full((layout.n_connectors, 2, 2, 2), -1, dtype=np.int64)
+    for c, spec in enumerate(layout.connectors):
+        for side, edge in enumerate((spec.lower_edge, spec.upper_edge)):
+            for k, (_, i0, i1) in enumerate(edge.segments if edge is not None else ()):
+                out[c, side, k] = i0, i1
+    return out
 
 
 def _connector_dofs(n: int, lower: np.ndarray, upper: np.ndarray) -> np.ndarray:
