@@ -19,6 +19,7 @@ kernels (they are not differentiable: the solvers never differentiate through a 
 
 from __future__ import annotations
 
+import functools
 from collections.abc import Callable
 from typing import Any
 
@@ -44,18 +45,27 @@ def sequential_vmap(fn: Callable[..., Any]) -> Callable[..., Any]:
     fn : callable
         A function of arrays (positional only) returning an array or a tuple of arrays.
     """
-    wrapped = jax.custom_batching.custom_vmap(fn)
 
-    @wrapped.def_vmap
-    def _rule(axis_size: int, in_batched: list[bool], *args: Any) -> tuple[Any, Any]:
-        full = [
-            a if b else jnp.broadcast_to(a, (axis_size, *jnp.shape(a)))
-            for a, b in zip(args, in_batched, strict=True)
-        ]
-        out = jax.lax.map(lambda xs: wrapped(*xs), tuple(full))
-        return out, jax.tree_util.tree_map(lambda _: True, out)
+    @functools.cache
+    def build() -> Any:  # on first call: importing this module does not import JAX
+        wrapped = jax.custom_batching.custom_vmap(fn)
 
-    return wrapped
+        @wrapped.def_vmap
+        def _rule(axis_size: int, in_batched: list[bool], *args: Any) -> tuple[Any, Any]:
+            full = [
+                a if b else jnp.broadcast_to(a, (axis_size, *jnp.shape(a)))
+                for a, b in zip(args, in_batched, strict=True)
+            ]
+            out = jax.lax.map(lambda xs: wrapped(*xs), tuple(full))
+            return out, jax.tree_util.tree_map(lambda _: True, out)
+
+        return wrapped
+
+    @functools.wraps(fn)
+    def call(*args: Any) -> Any:
+        return build()(*args)
+
+    return call
 
 
 @sequential_vmap

@@ -45,6 +45,7 @@ top-level ``jit``. The scalar Newton loop, which a displacement sweep calls hund
 
 from __future__ import annotations
 
+import functools
 import importlib
 import os
 from collections.abc import Callable
@@ -179,6 +180,25 @@ class _Lazy:
 jax: Any = _Lazy("jax")
 jnp: Any = _Lazy("jax.numpy")
 
+
+def lazy_jit(**options: Any) -> Callable[[Callable[..., Any]], Callable[..., Any]]:
+    """``functools.partial(jax.jit, **options)`` as a decorator that builds the jitted function
+    on its first call, so that defining it does not import JAX."""
+
+    def decorate(fn: Callable[..., Any]) -> Callable[..., Any]:
+        @functools.cache
+        def build() -> Any:
+            return jax.jit(fn, **options)
+
+        @functools.wraps(fn)
+        def call(*args: Any, **kwargs: Any) -> Any:
+            return build()(*args, **kwargs)
+
+        return call
+
+    return decorate
+
+
 __all__ = [
     "CACHE_DIR",
     "CHEAP_PIPELINE",
@@ -186,6 +206,7 @@ __all__ = [
     "jax",
     "jnp",
     "kernel_options",
+    "lazy_jit",
     "memory_map_count",
     "release_compiled_kernels",
 ]

@@ -11,104 +11,49 @@ NumPy arrays; the loads it takes are :class:`Load` (defined in :mod:`biplan.mode
 
 from __future__ import annotations
 
-import functools
-from collections.abc import Callable
-from dataclasses import dataclass
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
-from biplan._compile.kernel import Kernel
 from biplan._compile.setup import jax, jnp
 from biplan._errors import ConfigError, check_finite
 from biplan.geometry import chain
 from biplan.geometry.layout import TubeLayout
-from biplan.model.lagrangian import (
-    StateData,
-    _split,
-    kkt_jacobian,
-    lagrangian_hessian,
-    residual,
-    sizes,
-    state_data,
-    unloaded_terms,
-)
-from biplan.model.params import Load, ModelParams
-from biplan.model.potential import (
-    _kin,
-    contact_gaps,
-    energy,
-    fold_energies,
-    guide_values,
-    load_height,
-)
+from biplan.model.params import Load, ModelParams, StateData
 from biplan.model.system import System, is_supported, supports_rest
 from biplan.model.tube import Tube
-from biplan.options import ModelOptions
+from biplan.options import ContactForm, ModelOptions
 
-__all__ = ["Kernels", "Load", "Model", "kernels"]
+if TYPE_CHECKING:
+    from biplan.model.autodiff import Kernels
+
+__all__ = ["Kernels", "Load", "Model", "kernels", "sizes"]
 
 Array = Any
 
 
-def _law_rows(laws: tuple) -> Array:  # type: ignore[type-arg]
+def _law_rows(laws: tuple) -> np.ndarray:  # type: ignore[type-arg]
     if not laws:
-        return jnp.zeros((0, 5))
-    return jnp.asarray([law.coefficients for law in laws], dtype=jnp.float64)
+        return np.zeros((0, 5))
+    return np.asarray([law.coefficients for law in laws], dtype=np.float64)
 
 
-@dataclass(frozen=True)
-class Kernels:
-    """The jitted functions of one layout (all take ``params`` first)."""
-
-    energy: Any
-    fold_energies: Any
-    gradient: Any
-    hessian: Any
-    guides: Any
-    guide_jacobian: Any
-    contact_gaps: Any
-    contact_jacobian: Any
-    residual: Any
-    jacobian: Any
-    jacobian_autodiff: Any
-    state: Any
-    lagrangian_hessian: Any
-    endpoint: Any
-    load_height: Any
-    load_gradient: Any
-    kinematics: Any
+def sizes(layout: TubeLayout) -> tuple[int, int, int]:
+    """(n_q, n_g, n_c): coordinates, guide and contact multipliers of a layout."""
+    nq = layout.n_coordinates
+    ng = 2 * layout.n_modules
+    if layout.options.contact is ContactForm.MINIMUM:
+        nc = 2 * layout.n_modules + layout.n_connectors
+    else:
+        nc = 2 * layout.n_modules + len(chain.tables(layout).contact_pt)
+    return nq, ng, nc
 
 
-#: The model's per-point kernels (:func:`kernels`): functions of (layout, params, …). LLVM's
-#: cheap pipeline only with BIPLAN_FAST_COMPILE=on (the test suite): each of these compiles in
-#: 2–9 s and runs in under a millisecond.
-_POINT_FUNCTIONS: dict[str, Callable[..., Any]] = {
-    "energy": energy,
-    "fold_energies": fold_energies,
-    "gradient": jax.grad(energy, argnums=2),
-    "hessian": lambda L, p, q: unloaded_terms(L, p, q).hessian,
-    "guides": guide_values,
-    "guide_jacobian": lambda L, p, q: unloaded_terms(L, p, q).guide_jacobian,
-    "contact_gaps": contact_gaps,
-    "contact_jacobian": lambda L, p, q: unloaded_terms(L, p, q).gap_jacobian,
-    "residual": residual,
-    "jacobian": kkt_jacobian,
-    "jacobian_autodiff": jax.jacfwd(residual, argnums=2),
-    "state": state_data,
-    "lagrangian_hessian": lagrangian_hessian,
-    "endpoint": lambda L, p, q: chain.endpoint(L, p.geometry, q),
-    "load_height": load_height,
-    "load_gradient": jax.grad(load_height, argnums=2),
-    "kinematics": _kin,
-}
-_POINT_KERNELS = {name: Kernel(fun, name) for name, fun in _POINT_FUNCTIONS.items()}
-
-
-@functools.lru_cache(maxsize=64)
 def kernels(layout: TubeLayout) -> Kernels:
-    """The compiled per-point kernels of a tube layout (each built on first use)."""
-    return Kernels(**{name: k.compiled(layout) for name, k in _POINT_KERNELS.items()})
+    """The JAX kernels of a layout (:func:`biplan.model.autodiff.kernels`; imports JAX)."""
+    from biplan.model import autodiff
+
+    return autodiff.kernels(layout)
 
 
 class Model:
@@ -138,21 +83,28 @@ class Model:
         self.layout = tube.layout
         dev = tube.development
         geom = chain.GeometryParams(
-            jnp.asarray(dev.radius), jnp.asarray(dev.pitch), jnp.asarray(dev.beta)
+            np.asarray(dev.radius, dtype=float),
+            np.asarray(dev.pitch, dtype=float),
+            np.asarray(dev.beta, dtype=float),
         )
         self.params = ModelParams(
             geom,
             _law_rows(tube.helical_laws),
             _law_rows(tube.circular_laws),
-            jnp.asarray(tube.options.contact_smoothing),
-            jnp.asarray(tube.options.contact_compliance),
-            jnp.asarray(tube.options.smooth_min_width),
-            jnp.zeros(self.layout.n_coordinates),
-            jnp.asarray(0.0),
+            np.asarray(tube.options.contact_smoothing, dtype=float),
+            np.asarray(tube.options.contact_compliance, dtype=float),
+            np.asarray(tube.options.smooth_min_width, dtype=float),
+            np.zeros(self.layout.n_coordinates),
+            np.asarray(0.0),
         )
-        self.kernels = kernels(self.layout)
         self.n_coordinates, self.n_guides, self.n_contacts = sizes(self.layout)
         self.n_unknowns = self.n_coordinates + self.n_guides + self.n_contacts + 1
+
+    @property
+    def kernels(self) -> Kernels:
+        """The JAX kernels of this model's layout (:mod:`biplan.model.autodiff`; the first use
+        imports JAX)."""
+        return kernels(self.layout)
 
     @property
     def options(self) -> ModelOptions:
@@ -217,9 +169,7 @@ class Model:
         if kappa < 0:
             raise ConfigError("stiffness", kappa, ">= 0")
         out = copy.copy(self)
-        out.params = self.params._replace(
-            bias_anchor=jnp.asarray(anchor), bias_stiffness=jnp.asarray(kappa)
-        )
+        out.params = self.params._replace(bias_anchor=anchor, bias_stiffness=np.asarray(kappa))
         return out
 
     def with_options(self, **changes: Any) -> Model:
@@ -236,8 +186,9 @@ class Model:
     # --- packing --------------------------------------------------------------------------
     def split(self, z: Array) -> tuple[np.ndarray, np.ndarray, np.ndarray, float]:
         """(q, λ, λ_∂, μ) from a packed unknown vector."""
-        q, lam, lam_c, mu = _split(self.layout, np.asarray(z))
-        return np.asarray(q), np.asarray(lam), np.asarray(lam_c), float(mu)
+        z = np.asarray(z)
+        nq, ng, nc = self.n_coordinates, self.n_guides, self.n_contacts
+        return z[:nq], z[nq : nq + ng], z[nq + ng : nq + ng + nc], float(z[nq + ng + nc])
 
     def pack(
         self, q: Array, lam: Array | None = None, lam_c: Array | None = None, mu: float = 0.0

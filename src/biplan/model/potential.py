@@ -16,12 +16,11 @@ The Lagrangian, the KKT residual and the Jacobian built from them are in
 
 from __future__ import annotations
 
-import functools
 from typing import Any
 
 import numpy as np
 
-from biplan._compile.setup import jax, jnp
+from biplan._compile.setup import jax, jnp, lazy_jit
 from biplan.geometry import chain
 from biplan.geometry.layout import TubeLayout
 from biplan.laws import _kernels as law_kernels
@@ -46,7 +45,7 @@ def _coeffs(row: Array) -> law_kernels.Coefficients:
     return (row[0], row[1], row[2], row[3], row[4])
 
 
-@functools.partial(jax.jit, static_argnums=0)
+@lazy_jit(static_argnums=0)
 def _kin(layout: TubeLayout, p: ModelParams, q: Array) -> chain.Kinematics:
     """The chain kinematics (MODEL §4–7), a nested ``jit``: a kernel calls it many times
     (energy, guides, gaps, load point, each under grad/Hessian/jacfwd/vmap), and JAX traces a
@@ -57,7 +56,7 @@ def _kin(layout: TubeLayout, p: ModelParams, q: Array) -> chain.Kinematics:
     return chain.kinematics(layout, p.geometry, q)
 
 
-@functools.partial(jax.jit, static_argnums=0)
+@lazy_jit(static_argnums=0)
 def _energies(layout: TubeLayout, p: ModelParams, kin: chain.Kinematics) -> tuple[Array, Array]:
     """Helical and circular fold energies of given kinematics (a nested ``jit``, as
     :func:`_kin`)."""
@@ -122,7 +121,7 @@ def guide_values(layout: TubeLayout, p: ModelParams, q: Array) -> Array:
     return _kin(layout, p, q).guides
 
 
-@functools.partial(jax.jit, static_argnums=0)
+@lazy_jit(static_argnums=0)
 def _gaps(layout: TubeLayout, p: ModelParams, kin: chain.Kinematics) -> Array:
     """Contact gaps of given kinematics (a nested ``jit``, as :func:`_kin`)."""
     gaps = [kin.helical.reshape(-1)]

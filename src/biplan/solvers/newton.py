@@ -234,6 +234,13 @@ def _start_vector(model: Model, start: Any) -> np.ndarray:
     return z
 
 
+def _numpy(data: Any) -> Any:
+    """A (nested) NamedTuple of arrays with every leaf a NumPy array."""
+    if isinstance(data, tuple):
+        return type(data)(*(_numpy(v) for v in data))
+    return np.asarray(data)
+
+
 def make_solution(
     model: Model,
     z: np.ndarray,
@@ -246,7 +253,7 @@ def make_solution(
     """Wrap a packed solution vector into a :class:`Solution` (``data``: its
     :class:`StateData` when the solver returned it; else evaluated here)."""
     q, lam, lam_c, mu = model.split(z)
-    data = model.state(z, load) if data is None else jax.tree_util.tree_map(np.asarray, data)
+    data = model.state(z, load) if data is None else _numpy(data)
     zp = float(data.load_displacement)
     force = -mu if load.is_displacement_controlled else float(load.force)
     return Solution(
