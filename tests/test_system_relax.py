@@ -20,7 +20,6 @@ from biplan.analysis.states.labels import bistable_folds
 from biplan.analysis.states.search import state_bits
 from biplan.model import potential
 from biplan.model.elements import reduced as oracle
-from biplan.model.params import Load
 from biplan.model.system import chainterm, reduced
 from biplan.options import ChainAttachment, ContactForm, TpcSign
 from biplan.solvers import iteration, relax_loop
@@ -50,7 +49,7 @@ def _x(model: biplan.Model, rng: np.random.Generator, scale: float = 0.08) -> np
 
 
 def test_reduced_kinematics_equal_the_jax_reading(model, rng) -> None:
-    d = model.system_at_rest().data
+    d = model.system().data
     for _ in range(3):
         x = _x(model, rng)
         q, d1, d2 = reduced.full_coordinates(d, x)
@@ -85,7 +84,7 @@ def test_reduced_kinematics_equal_the_jax_reading(model, rng) -> None:
 def test_penalized_energy_and_its_derivatives(model, rng) -> None:
     """The value against the JAX reading, the gradient and Hessian against central
     differences of the compiled value and gradient."""
-    d = model.system_at_rest().data
+    d = model.system().data
     stiffness = 1e4
     pressed = 0
     for _ in range(2):
@@ -111,7 +110,7 @@ def test_penalized_energy_and_its_derivatives(model, rng) -> None:
 
 
 def test_edge_fit_endpoint_and_height_equal_the_jax_chain(model, rng) -> None:
-    d = model.system_at_rest().data
+    d = model.system().data
     for _ in range(3):
         q = reduced.full_coordinates(d, _x(model, rng))[0]
         ref = model.endpoint(jnp.asarray(q))
@@ -120,16 +119,6 @@ def test_edge_fit_endpoint_and_height_equal_the_jax_chain(model, rng) -> None:
         assert zp == pytest.approx(model.load_displacement(q), abs=1e-13)
         frac = potential.phase_fractions(model.layout, model.params, jnp.asarray(q))
         np.testing.assert_allclose(phase_fractions(d, q), np.asarray(frac), atol=1e-13)
-
-
-def test_a_rest_only_system_refuses_a_load() -> None:
-    model = biplan.Model(biplan.designs.fully_bistable(n_modules=2))
-    assert model.system() is None
-    system = model.system_at_rest()
-    assert system is not None and system.rest_only
-    with pytest.raises(biplan.ConfigError, match="edge_fit"):
-        system.at(force=0.1)
-    assert model.system(Load.of_force(0.0)) is None  # the general one stays the JAX model's
 
 
 def test_positive_definite_test_and_descent_shift() -> None:
@@ -152,7 +141,7 @@ def relaxed():
         newton.atol, newton.max_steps, newton.max_backtracks, newton.armijo, newton.free_steps
     )
     args = (float(settings.penalty_stiffness), int(settings.max_iterations), method)
-    d = model.system_at_rest().data
+    d = model.system().data
     batch = relax_loop.relax_seeds(d, target, mask, *args)
     return model, d, target, mask, args, batch
 
@@ -170,7 +159,7 @@ def test_relaxed_seeds_are_equilibria_in_their_seeds_wells(relaxed) -> None:
     assert np.all(status == 0)
     assert np.all(residual < 1e-9)
     for z in zs:
-        r = model.system_at_rest().residual(z)
+        r = model.system().residual(z)
         assert np.max(np.abs(r)) < 1e-9
     # the descent never stops on a saddle: every seed reaches a stable state, whose fold
     # bits are those of its phase fractions

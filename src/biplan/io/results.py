@@ -167,7 +167,7 @@ def sweep_dataset(path: QuasiStaticPath, model: Model) -> Any:
     """
     import xarray as xr
 
-    from biplan.solvers.observe import observe_batch
+    from biplan.solvers import observation
     from biplan.solvers.results import PHASES, fold_names
 
     nq, n, names = model.n_coordinates, path.n_steps, fold_names(model)
@@ -180,7 +180,7 @@ def sweep_dataset(path: QuasiStaticPath, model: Model) -> Any:
         q[ok] = z[:, :nq]
         zero = np.zeros(len(z))
         # fold energies and branch fractions depend on q only (the load enters the force)
-        obs = observe_batch(model.layout, model.params, z, Load(zero, zero, zero))
+        obs = observation.observe(model, z, Load(zero, zero, zero))
         fold_energy[ok] = np.asarray(obs.fold_energy, dtype=float)
         phase[ok] = np.asarray(obs.phase_fraction, dtype=float)
     data: dict[str, Any] = {}

@@ -20,7 +20,7 @@ from biplan._errors import ConfigError, check_finite
 from biplan.geometry import chain
 from biplan.geometry.layout import TubeLayout
 from biplan.model.params import Load, ModelParams, StateData
-from biplan.model.system import System, is_supported, supports_rest
+from biplan.model.system import System, is_supported
 from biplan.model.tube import Tube
 from biplan.options import ContactForm, ModelOptions
 
@@ -120,12 +120,8 @@ class Model:
         return self._compiled_system(load)
 
     def system_at_rest(self) -> System | None:
-        """:meth:`system` at zero end load, which also covers R3 ``EDGE_FIT``
-        (:func:`~biplan.model.system.supports_rest`; a :attr:`~biplan.model.system.System.rest_only`
-        system there), or None where the chain readings are not covered."""
-        if not supports_rest(self.layout):
-            return None
-        return self._compiled_system(None)
+        """:meth:`system` at zero end load."""
+        return self.system()
 
     def _compiled_system(self, load: Load | None) -> System:
         cached = self.__dict__.get("_system")

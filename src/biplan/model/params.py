@@ -86,15 +86,6 @@ class Load(NamedTuple):
     def is_displacement_controlled(self) -> bool:
         return bool(float(self.displacement_control) > 0.5)
 
-    @property
-    def is_at_rest(self) -> bool:
-        """Zero end force under force control (scalar loads only)."""
-        return (
-            np.ndim(self.force) == 0
-            and float(self.force) == 0.0
-            and not self.is_displacement_controlled
-        )
-
     def for_kernel(self) -> Load:
         """The form every compiled kernel is called with: weakly typed JAX scalars, whatever
         the caller passed (Python or NumPy floats; arrays are passed on). One input type per

@@ -47,10 +47,9 @@ from biplan.model.inertia import mass_matrix
 from biplan.model.system import System, assemble, chainterm
 from biplan.model.system import inertia as system_inertia
 from biplan.solvers import _dynkernel as dk
-from biplan.solvers import step_loop
+from biplan.solvers import observation, step_loop
 from biplan.solvers.control import Control, ControlKind
 from biplan.solvers.newton import Solution, relaxed_reference
-from biplan.solvers.observe import observe_batch
 from biplan.solvers.results import observables
 from biplan.solvers.trajectory_results import Trajectory, TrajectoryStats, TrajectoryStatus
 
@@ -206,7 +205,7 @@ def mass_matrix_at(model: Model, q: np.ndarray) -> np.ndarray:
     if q.shape != (model.n_coordinates,):
         raise ConfigError("q", q.shape, f"shape ({model.n_coordinates},)")
     system = model.system()
-    if system is not None:
+    if system is not None and system.element_frames:
         return system_inertia.mass_matrix(system.data, q, float(model.tube.surface_density))
     m = _mass.compiled(model.layout)(model.params, jnp.asarray(q), model.tube.surface_density)
     return np.asarray(m)
@@ -309,7 +308,7 @@ def integrate(
     )
     load0 = _load_at(ctl, load.value(0.0))
     system = model.system()
-    run = _run_jax if system is None else _run_system
+    run = _run_system if system is not None and system.element_frames else _run_jax
     ts, zs, vs, kins, its, diss, rejected, status = run(
         model, z0, v, load0, ctl, times, values, settings, scheme, t_end
     )
@@ -318,7 +317,7 @@ def integrate(
         status = TrajectoryStatus.NONFINITE
     t_all = np.asarray(ts)
     load_parameter = load.value(t_all)
-    obs = observe_batch(model.layout, model.params, z_all, _load_at(ctl, load_parameter))
+    obs = observation.observe(model, z_all, _load_at(ctl, load_parameter))
     kinetic = np.asarray(kins)
     force, zp = np.asarray(obs.force), np.asarray(obs.displacement)
     work = np.concatenate([[0.0], np.cumsum(0.5 * (force[1:] + force[:-1]) * np.diff(zp))])

@@ -307,8 +307,6 @@ def solve_equilibrium(
         raise ConfigError("load", load, "a biplan Load (Load.of_force / Load.of_displacement)")
     z0 = _start_vector(model, model.zeros() if start is None else start)
     system = model.system(load)
-    if system is None and load.is_at_rest:
-        system = model.system_at_rest()
     if system is not None:
         return _solve_compiled(model, system, method, z0, load, throw)
     loop = solve_loop.compiled(model.layout)

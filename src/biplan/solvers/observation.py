@@ -315,9 +315,8 @@ def observe_state(
 @njit(cache=True)
 def _observe_one(d: SystemData, z: np.ndarray, load: np.ndarray, weak_contacts: bool) -> tuple:
     """:func:`observe_state` of z with its Jacobian assembled here."""
-    _, jac, zp, _, t = assemble.evaluate(d, z, load, True)
-    if load[0] == 0.0 and load[2] == 0.0:  # at rest, evaluate skips the load point
-        zp = chainterm.load_height(d, z[: d.sizes[0]]) - d.load_reference[0]
+    _, jac, _, _, t = assemble.evaluate(d, z, load, True)
+    zp = chainterm.load_height(d, z[: d.sizes[0]]) - d.load_reference[0]  # as observe_state
     return _observation(d, z, load, jac, t[2], t[3], t[6], t[7], zp, weak_contacts)
 
 
@@ -407,8 +406,9 @@ def observe(
     Parameters
     ----------
     system_or_data : Model, System or SystemData
-        The tube: a :class:`~biplan.Model` (its :meth:`~biplan.Model.system`), its System or
-        the System's data; a System's own load is ignored.
+        The tube: a :class:`~biplan.Model` (its :meth:`~biplan.Model.system`; the JAX kernels,
+        :func:`biplan.solvers.observe.observe_batch`, where it does not cover the readings),
+        its System or the System's data; a System's own load is ignored.
     zs : array_like (k, n_z) or (n_z,)
         Packed states [q, λ, λ_∂, μ].
     loads : array_like (k, 3) or (3,), or Load, optional
@@ -432,13 +432,6 @@ def observe(
     import numba
 
     source = system_or_data
-    if hasattr(source, "layout") and callable(getattr(source, "system", None)):  # a Model
-        if weak_contacts is None:
-            weak_contacts = source.options.weak_contacts_active
-        source = source.system()
-        if source is None:
-            raise ValueError("the model's chain readings have no compiled system")
-    d: SystemData = getattr(source, "data", source)
     zs = np.ascontiguousarray(np.atleast_2d(np.asarray(zs, dtype=float)))
     k = zs.shape[0]
     if k == 0:
@@ -450,8 +443,39 @@ def observe(
     else:
         table = np.broadcast_to(np.asarray(loads, dtype=float), (k, 3))
     table = np.ascontiguousarray(table)
+    if hasattr(source, "layout") and callable(getattr(source, "system", None)):  # a Model
+        model = source
+        if weak_contacts is None:
+            weak_contacts = model.options.weak_contacts_active
+        at_rest = not np.any(table[:, 0]) and not np.any(table[:, 2])
+        source = model.system()
+        if source is None:  # readings without a compiled system: the JAX kernels
+            from biplan.model.params import Load
+            from biplan.solvers.observe import observe_batch
+
+            columns = Load(table[:, 0], table[:, 1], table[:, 2])
+            return observe_batch(model.layout, model.params, zs, None if at_rest else columns)
+    d: SystemData = getattr(source, "data", source)
+    finite = np.all(np.isfinite(zs), axis=1) & np.all(np.isfinite(table), axis=1)
+    if not finite.all():  # NaN rows of a failed solve: NaN observables, the others as usual
+        out = _missing(k, d.ref.shape[0] + d.conn_upper.shape[0])
+        if finite.any():
+            part = observe(d, zs[finite], table[finite], bool(weak_contacts), parallel)
+            for field, v in zip(out, part, strict=True):
+                field[finite] = v
+        return out
     threads = numba.get_num_threads()
     if parallel is None:
         parallel = threads > 1 and k >= PARALLEL_MIN_STATES * threads
     kernel = observe_states if parallel else observe_states_serial
     return Observation(*kernel(d, zs, table, bool(weak_contacts)))
+
+
+def _missing(k: int, n_folds: int) -> Observation:
+    """An :class:`Observation` of k states with NaN everywhere (0 for the counts)."""
+    nan = np.full(k, np.nan)
+    return Observation(
+        nan.copy(), nan.copy(), nan.copy(), nan.copy(), nan.copy(), nan.copy(),
+        np.full((k, n_folds), np.nan), np.full((k, n_folds, 3), np.nan), nan.copy(),
+        np.zeros(k, dtype=np.int64), np.zeros(k, dtype=np.int64), nan.copy(), nan.copy(),
+    )  # fmt: skip

@@ -31,10 +31,10 @@ from biplan._errors import ConfigError, check_integer, check_range
 from biplan.analysis.stability import classify
 from biplan.geometry.layout import TubeLayout
 from biplan.model.assembly import Load, Model, kernels
+from biplan.solvers import observation
 from biplan.solvers.core import iterate
 from biplan.solvers.core_settings import Settings, Status
 from biplan.solvers.newton import make_solution
-from biplan.solvers.observe import observe_batch
 
 __all__ = ["Deflation", "DeflationResult", "Equilibrium", "deflate", "deflated_loop"]
 
@@ -343,8 +343,7 @@ def deflate(
 
 def _classify(model: Model, found: list[tuple[np.ndarray, float, str]]) -> tuple[Equilibrium, ...]:
     z = np.stack([f[0] for f in found])
-    n = len(z)
-    obs = observe_batch(model.layout, model.params, z, Load(np.zeros(n), np.zeros(n), np.zeros(n)))
+    obs = observation.observe(model, z)
     out = []
     for k, (zk, res, label) in enumerate(found):
         sol = make_solution(model, zk, Load.of_force(0.0), Status.CONVERGED, res, 0)

@@ -26,8 +26,9 @@ from biplan._compile.setup import jnp
 from biplan._errors import ConfigError, ResultStatus, check_integer, check_range
 from biplan.analysis.response.quasistatic import SUB_TOLERANCE, inexact_newton
 from biplan.model.assembly import Load, Model
+from biplan.solvers import observation
 from biplan.solvers.newton import Newton, Status, solve_loop
-from biplan.solvers.observe import Observation, observe_batch
+from biplan.solvers.observation import Observation
 
 __all__ = ["Departure", "DepartureStatus", "Ramp", "departure_force"]
 
@@ -152,11 +153,8 @@ class _Stepper:
 
     def observe(self, z: np.ndarray, value: float) -> Observation:
         f, u = (0.0, value) if self.d else (value, 0.0)
-        return observe_batch(
-            self.model.layout,
-            self.model.params,
-            z[None],
-            Load(np.array([f]), np.array([u]), np.array([self.d])),
+        return observation.observe(
+            self.model, z[None], Load(np.array([f]), np.array([u]), np.array([self.d]))
         )
 
     def follow(self, z: np.ndarray, value: float) -> tuple[np.ndarray, bool]:
@@ -194,10 +192,7 @@ class _Stepper:
 
 
 def _bits(model: Model, z: np.ndarray) -> tuple[int, ...]:
-    n = 1
-    obs = observe_batch(
-        model.layout, model.params, z[None], Load(np.zeros(n), np.zeros(n), np.zeros(n))
-    )
+    obs = observation.observe(model, z[None])
     phase = np.asarray(obs.phase_fraction[0])
     return tuple(int(b) for b in phase[:, 2] > phase[:, 0])
 

@@ -61,7 +61,7 @@ def state_bits(model: Model, q: np.ndarray) -> tuple[int, ...]:
     """Fold-state bits of coordinates ``q`` (free end first,
     :func:`~biplan.analysis.states.labels.bistable_folds`): 1 where the open branch occupies more of
     the fold's length than the closed one (SI, "Construction of a state transition diagram")."""
-    system = model.system_at_rest()
+    system = model.system()
     if system is not None:
         frac = observation.phase_fractions(system.data, np.asarray(q, dtype=float))
     else:

@@ -40,7 +40,6 @@ from biplan.solvers import observation, relax_loop
 from biplan.solvers._relaxkernel import relax_pool
 from biplan.solvers.core_settings import Status
 from biplan.solvers.iteration import settings_array
-from biplan.solvers.observe import observe_batch
 
 if TYPE_CHECKING:
     from biplan.analysis.maps.sweeps import ChunkSink
@@ -157,7 +156,7 @@ def relax_seeds(
     costs nothing), so every block reuses one compilation; ``progress(done, total)`` is called
     after each block.
     """
-    system = model.system_at_rest()
+    system = model.system()
     if system is not None:
         return _relax_compiled(system.data, target, mask, settings, progress)
     lanes = min(settings.lanes, settings.chunk)
@@ -276,12 +275,7 @@ def evaluate(
     rep = merge_rows(z[:, : model.layout.n_coordinates], finite, SHARED_OBSERVATION)
     rep = np.where(finite, rep, np.arange(len(z)))
     observed = np.flatnonzero(rep == np.arange(len(z)))
-    system = model.system_at_rest()
-    if system is not None:
-        weak = model.options.weak_contacts_active
-        obs = observation.observe(system, z[observed], None, weak)
-    else:
-        obs = observe_batch(model.layout, model.params, z[observed], None)
+    obs = observation.observe(model, z[observed])
     position = np.zeros(len(z), dtype=np.int64)
     position[observed] = np.arange(len(observed))
     obs = type(obs)(*(np.asarray(v)[position[rep]] for v in obs))

@@ -21,10 +21,10 @@ from biplan._compile import numba_cache  # first: the kernels' cache locator
 from biplan._errors import ConfigError
 from biplan.geometry.layout import TubeLayout
 from biplan.model.system import assemble, chainterm
-from biplan.model.system.tables import SystemData, is_supported, supports_rest, system_data
+from biplan.model.system.tables import SystemData, is_supported, system_data
 from biplan.model.tube import Tube
 
-__all__ = ["System", "SystemData", "is_supported", "supports_rest", "system_data"]
+__all__ = ["System", "SystemData", "is_supported", "system_data"]
 
 
 @dataclass(frozen=True)
@@ -68,13 +68,12 @@ class System:
         circular: np.ndarray,
     ) -> System:
         """The system at rest of a layout with R, l [mm], β [rad] and the law rows (k1, k2, k3,
-        w1, w2) of every helical (N, 5) and circular (Nc, 5) fold. Under R3 ``EDGE_FIT`` the
-        system holds at rest only (:attr:`rest_only`)."""
-        if not supports_rest(layout):
+        w1, w2) of every helical (N, 5) and circular (Nc, 5) fold."""
+        if not is_supported(layout):
             raise ConfigError(
-                "options.chain_offset/chain_attachment",
-                f"{layout.options.chain_offset.value}/{layout.options.chain_attachment.value}",
-                "exact/element, or exact/edge_fit at rest, for the compiled system",
+                "options.chain_offset",
+                layout.options.chain_offset.value,
+                "exact for the compiled system",
             )
         _announce_compile()
         data = system_data(layout, radius, pitch, beta, helical, circular)
@@ -89,19 +88,13 @@ class System:
         return System(self.data._replace(scalars=scalars), self.load)
 
     @property
-    def rest_only(self) -> bool:
-        """Whether the system holds at rest only: under R3 ``EDGE_FIT`` the kernels compose the
-        frames (the free end's position) but not the load point's derivatives."""
-        return bool(self.data.flags[2] == 1)
+    def element_frames(self) -> bool:
+        """Whether the module frames follow R3 ``ELEMENT`` (the frames the compiled inertia
+        composes; under ``EDGE_FIT`` the dynamics use the JAX model)."""
+        return bool(self.data.flags[2] == 0)
 
     def at(self, force: float = 0.0, displacement: float = 0.0, control: float = 0.0) -> System:
-        """The same tube at another load (at rest only for a :attr:`rest_only` system)."""
-        if self.rest_only and (force != 0.0 or control != 0.0):
-            raise ConfigError(
-                "load",
-                f"force {force:g} N, displacement control {control:g}",
-                "zero end load for a system under chain_attachment = edge_fit",
-            )
+        """The same tube at another load."""
         return System(self.data, np.array([force, displacement, control], dtype=float))
 
     def with_bias(self, anchor: np.ndarray, stiffness: float) -> System:

@@ -28,7 +28,7 @@ from typing import cast
 import numpy as np
 from numba import njit
 
-from biplan.model.system.chainterm import _gather, _load_point, load_height
+from biplan.model.system.chainterm import _gather, _load_point
 from biplan.model.system.elements import (
     field_energy,
     kernel,
@@ -370,9 +370,5 @@ def observe(d: SystemData, z: np.ndarray) -> tuple:  # type: ignore[type-arg]
     q = z[:n_q]
     t = _terms(d, q, z[n_q : n_q + n_g], z[n_q + n_g : n_q + n_g + n_c], _FIRST)
     a = np.zeros(n_q)
-    if d.flags[2] == 1:  # edge fit (a system at rest only): the height, no gradient
-        zp = load_height(d, q) - d.load_reference[0]
-        a[:] = np.nan
-    else:
-        zp = _load_point(d, q, a, np.zeros((0, 0)), 0.0, _FIRST) - d.load_reference[0]
+    zp = _load_point(d, q, a, np.zeros((0, 0)), 0.0, _FIRST) - d.load_reference[0]
     return zp, a, t[6], t[7], t[3]

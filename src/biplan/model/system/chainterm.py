@@ -26,6 +26,7 @@ import math
 import numpy as np
 from numba import njit
 
+from biplan.model.system import edgefit
 from biplan.model.system.elements import Quad, angles, edge, kernel, pair, pivots, rotated
 from biplan.model.system.tables import SystemData
 
@@ -233,84 +234,10 @@ def _top(
 
 
 @njit(cache=True)
-def _fit(d: SystemData, q: np.ndarray, m: int, segs: np.ndarray) -> tuple:  # type: ignore[type-arg]
-    """(angle, t_z, t_s): the least-squares rigid motion of module m's edge (segments
-    ``segs`` (2, 2) of node indices, -1 none) from its reference to its deformed nodes in the
-    module frame, each segment end weighted by half its reference length
-    (:func:`biplan.geometry.chain._edge_fit`)."""
-    u, trig = q[3 * m], angles(q[3 * m + 1], q[3 * m + 2])
-    pts = np.zeros((4, 5))  # per end: weight, reference (z, s), deformed (z, s)
-    k = 0
-    for j in range(2):
-        if segs[j, 0] < 0:
-            continue
-        i0, i1 = segs[j, 0], segs[j, 1]
-        w = math.hypot(d.ref[m, i1, 0] - d.ref[m, i0, 0], d.ref[m, i1, 1] - d.ref[m, i0, 1])
-        for i in (i0, i1):
-            z, s = rotated(u, trig, d.ref, m, i, 0 if i < 4 else 1)[:2]
-            pts[k, 0], pts[k, 3], pts[k, 4] = w, z, s
-            pts[k, 1], pts[k, 2] = d.ref[m, i, 0], d.ref[m, i, 1]
-            k += 1
-    total = pz0 = ps0 = qz0 = qs0 = 0.0
-    for j in range(k):
-        total += pts[j, 0]
-        pz0 += pts[j, 0] * pts[j, 1]
-        ps0 += pts[j, 0] * pts[j, 2]
-        qz0 += pts[j, 0] * pts[j, 3]
-        qs0 += pts[j, 0] * pts[j, 4]
-    pc = (pz0 / total, ps0 / total)
-    qc = (qz0 / total, qs0 / total)
-    h00 = h01 = h10 = h11 = 0.0
-    for j in range(k):
-        w, pz, ps = pts[j, 0], pts[j, 1] - pc[0], pts[j, 2] - pc[1]
-        qz, qs = pts[j, 3] - qc[0], pts[j, 4] - qc[1]
-        h00 += w * pz * qz
-        h01 += w * pz * qs
-        h10 += w * ps * qz
-        h11 += w * ps * qs
-    angle = math.atan2(h01 - h10, h00 + h11)
-    ca, sa = math.cos(angle), math.sin(angle)
-    return angle, qc[0] - (ca * pc[0] - sa * pc[1]), qc[1] - (sa * pc[0] + ca * pc[1])
-
-
-@kernel
-def _compose(a: tuple, b: tuple) -> tuple:  # type: ignore[type-arg]
-    """The rigid motion a ∘ b of two (angle, t_z, t_s)."""
-    ca, sa = math.cos(a[0]), math.sin(a[0])
-    return a[0] + b[0], a[1] + ca * b[1] - sa * b[2], a[2] + sa * b[1] + ca * b[2]
-
-
-@kernel
-def _inverse(a: tuple) -> tuple:  # type: ignore[type-arg]
-    ca, sa = math.cos(a[0]), math.sin(a[0])
-    return -a[0], -(ca * a[1] + sa * a[2]), -(-sa * a[1] + ca * a[2])
-
-
-@njit(cache=True)
-def _fit_chain_end(d: SystemData, q: np.ndarray) -> tuple[float, float, float]:  # type: ignore[type-arg]
-    """:func:`_chain_end` under R3 ``EDGE_FIT``: the fit of the upper module's bottom edge sits
-    γ above the fit of the lower module's top edge (the clamp line for the base connector),
-    F_up = F_lo ∘ fit_lo ∘ Trans(l + γ) ∘ fit_up⁻¹ (:func:`biplan.geometry.chain._frames`)."""
-    n, nc = d.ref.shape[0], d.conn_upper.shape[0]
-    frames = np.zeros((n, 3))  # module 0 without a base connector: the clamp frame
-    for c in range(nc):
-        lo, up, gam = d.conn_lower[c], d.conn_upper[c], q[3 * n + c]
-        if lo < 0:
-            below = (0.0, d.conn_seam_height[c] + gam, 0.0)
-        else:
-            f_lo = (frames[lo, 0], frames[lo, 1], frames[lo, 2])
-            fit_lo = _fit(d, q, lo, d.conn_edges[c, 0])
-            below = _compose(_compose(f_lo, fit_lo), (0.0, d.scalars[0] + gam, 0.0))
-        f_up = _compose(below, _inverse(_fit(d, q, up, d.conn_edges[c, 1])))
-        frames[up, 0], frames[up, 1], frames[up, 2] = f_up
-    return frames[n - 1, 0], frames[n - 1, 1], frames[n - 1, 2]
-
-
-@njit(cache=True)
 def _chain_end(d: SystemData, q: np.ndarray) -> tuple[float, float, float]:  # type: ignore[type-arg]
     """(θ, p_z, p_s): the top module's frame at q, composed up the chain (value only)."""
     if d.flags[2] == 1:
-        return _fit_chain_end(d, q)
+        return edgefit.chain_end(d, q)
     nc = d.conn_upper.shape[0]
     x, local, jacs = np.empty(7), np.empty((2, 7)), np.empty((1, 3, 7))
     theta, pz, ps = 0.0, 0.0, 0.0
@@ -350,6 +277,11 @@ def _load_point(
 ) -> float:
     """:func:`load_point`."""
     n, nc = d.ref.shape[0], d.conn_upper.shape[0]
+    if d.flags[2] == 1:  # R3 EDGE_FIT: dense increments
+        top = np.empty((2, 2, 3))
+        zbar, sbar = _top(q, n - 1, d.ref, d.load_weights, top[0], top[1])
+        data = (zbar, sbar, top[0], top[1])
+        return edgefit.load_point(d, q, data, gradient, hessian, coef, second)
     dofs = d.conn_dofs
     jacs = np.empty((nc, 3, 7))
     # per connector: cos θ_c, sin θ_c, [R(θ_c) t_c]_z, [R(θ_c) t_c]_s, and the suffix sums

@@ -26,7 +26,7 @@ from biplan.options import (
     ModuleKind,
 )
 
-__all__ = ["SystemData", "is_supported", "supports_rest", "system_data"]
+__all__ = ["SystemData", "is_supported", "system_data"]
 
 
 class SystemData(NamedTuple):
@@ -40,7 +40,7 @@ class SystemData(NamedTuple):
     sizes: np.ndarray  # (3,) int: n_q, n_g, n_c
     scalars: np.ndarray  # (7,) l, H, a, ε, c (contact compliance), τ (smooth minimum), H1
     # (3,) int: contact form (0 per endpoint, 1 minimum), endpoint (0 edge, 1 seam),
-    # attachment (0 element, 1 edge fit: the frames at rest only, :func:`supports_rest`)
+    # attachment (0 element, 1 edge fit)
     flags: np.ndarray
     # modules
     ref: np.ndarray  # (N, 7, 2) reference nodes in each module frame
@@ -82,16 +82,8 @@ class SystemData(NamedTuple):
 
 
 def is_supported(layout: TubeLayout) -> bool:
-    """Whether the compiled kernels cover the layout's chain readings under load (R1 ``EXACT``
-    with R3 ``ELEMENT``, the defaults, or no connector); other chain readings use the JAX
-    model."""
-    return layout.n_connectors == 0 or frames.scannable(layout)
-
-
-def supports_rest(layout: TubeLayout) -> bool:
-    """Whether the compiled kernels cover the layout at rest (zero end load): the chain then
-    enters only through the free end's position (its frames, values only), which they compose
-    under R1 ``EXACT`` with R3 ``ELEMENT`` or ``EDGE_FIT``."""
+    """Whether the compiled kernels cover the layout's chain readings: R1 ``EXACT`` with R3
+    ``ELEMENT`` or ``EDGE_FIT`` (or no connector); R1 ``PAPER`` uses the JAX model."""
     return layout.n_connectors == 0 or layout.options.chain_offset is ChainOffset.EXACT
 
 
