@@ -51,6 +51,8 @@ LAYOUTS = {
     # 4 modules, no base fold, trilinear helical laws; the default chain readings
     "fully bistable": lambda: biplan.designs.fully_bistable(ModelOptions()),
     "one module": lambda: make_tube(1),
+    # R1 paper offset: the clamp, SPC frames turned by the lower element
+    "paper offset": lambda: make_tube(3).with_options(chain_offset=ChainOffset.PAPER),
     # R3 edge fit: the base connector's clamp line, split (two-segment) edges of the TPCs
     "semi-bistable, edge fit": lambda: biplan.designs.semi_bistable(
         ModelOptions(chain_attachment=ChainAttachment.EDGE_FIT)
@@ -241,15 +243,6 @@ def test_layouts_are_supported_and_sized_as_the_model():
         assert system.n_unknowns == model.n_unknowns, name
     kinds = [c.kind for c in _model("point mirror, first mirrored, split load").layout.connectors]
     assert "3PC" in kinds
-
-
-def test_the_paper_chain_offset_is_refused():
-    """The compiled kernels cover R1 EXACT (with either R3); the JAX model serves R1 PAPER."""
-    tube = make_tube(2).with_options(chain_offset=ChainOffset.PAPER)
-    assert not is_supported(tube.layout)
-    with pytest.raises(biplan.ConfigError, match="chain_offset"):
-        System.of(tube, force=1.0)
-    assert is_supported(biplan.designs.fully_bistable().layout)  # R3 edge fit
 
 
 @pytest.mark.parametrize("name", list(LAYOUTS))

@@ -18,7 +18,6 @@ from typing import Any
 import numpy as np
 
 from biplan._compile import numba_cache  # first: the kernels' cache locator
-from biplan._errors import ConfigError
 from biplan.geometry.layout import TubeLayout
 from biplan.model.system import assemble, chainterm
 from biplan.model.system.tables import SystemData, is_supported, system_data
@@ -69,12 +68,6 @@ class System:
     ) -> System:
         """The system at rest of a layout with R, l [mm], β [rad] and the law rows (k1, k2, k3,
         w1, w2) of every helical (N, 5) and circular (Nc, 5) fold."""
-        if not is_supported(layout):
-            raise ConfigError(
-                "options.chain_offset",
-                layout.options.chain_offset.value,
-                "exact for the compiled system",
-            )
         _announce_compile()
         data = system_data(layout, radius, pitch, beta, helical, circular)
         data = data._replace(load_reference=np.array([chainterm.reference_height(data)]))
@@ -89,9 +82,10 @@ class System:
 
     @property
     def element_frames(self) -> bool:
-        """Whether the module frames follow R3 ``ELEMENT`` (the frames the compiled inertia
-        composes; under ``EDGE_FIT`` the dynamics use the JAX model)."""
-        return bool(self.data.flags[2] == 0)
+        """Whether the module frames follow the default chain (R1 ``EXACT``, R3 ``ELEMENT``):
+        the frames the compiled inertia composes (the dynamics under the other readings use
+        the JAX model)."""
+        return bool(self.data.flags[2] == 0 and self.data.flags[3] == 0)
 
     def at(self, force: float = 0.0, displacement: float = 0.0, control: float = 0.0) -> System:
         """The same tube at another load."""

@@ -26,7 +26,7 @@ import math
 import numpy as np
 from numba import njit
 
-from biplan.model.system import edgefit
+from biplan.model.system import readings
 from biplan.model.system.elements import Quad, angles, edge, kernel, pair, pivots, rotated
 from biplan.model.system.tables import SystemData
 
@@ -236,8 +236,8 @@ def _top(
 @njit(cache=True)
 def _chain_end(d: SystemData, q: np.ndarray) -> tuple[float, float, float]:  # type: ignore[type-arg]
     """(θ, p_z, p_s): the top module's frame at q, composed up the chain (value only)."""
-    if d.flags[2] == 1:
-        return edgefit.chain_end(d, q)
+    if d.flags[2] == 1 or d.flags[3] == 1:
+        return readings.chain_end(d, q)
     nc = d.conn_upper.shape[0]
     x, local, jacs = np.empty(7), np.empty((2, 7)), np.empty((1, 3, 7))
     theta, pz, ps = 0.0, 0.0, 0.0
@@ -277,11 +277,11 @@ def _load_point(
 ) -> float:
     """:func:`load_point`."""
     n, nc = d.ref.shape[0], d.conn_upper.shape[0]
-    if d.flags[2] == 1:  # R3 EDGE_FIT: dense increments
+    if d.flags[2] == 1 or d.flags[3] == 1:  # R3 EDGE_FIT or R1 PAPER: dense increments
         top = np.empty((2, 2, 3))
         zbar, sbar = _top(q, n - 1, d.ref, d.load_weights, top[0], top[1])
         data = (zbar, sbar, top[0], top[1])
-        return edgefit.load_point(d, q, data, gradient, hessian, coef, second)
+        return readings.load_point(d, q, data, gradient, hessian, coef, second)
     dofs = d.conn_dofs
     jacs = np.empty((nc, 3, 7))
     # per connector: cos θ_c, sin θ_c, [R(θ_c) t_c]_z, [R(θ_c) t_c]_s, and the suffix sums

@@ -39,8 +39,8 @@ class SystemData(NamedTuple):
     # sizes (n_q, n_g, n_c) and scalar numbers
     sizes: np.ndarray  # (3,) int: n_q, n_g, n_c
     scalars: np.ndarray  # (7,) l, H, a, ε, c (contact compliance), τ (smooth minimum), H1
-    # (3,) int: contact form (0 per endpoint, 1 minimum), endpoint (0 edge, 1 seam),
-    # attachment (0 element, 1 edge fit)
+    # (4,) int: contact form (0 per endpoint, 1 minimum), endpoint (0 edge, 1 seam), R3
+    # attachment (0 element, 1 edge fit; 0 under PAPER, which ignores it), R1 offset (1 paper)
     flags: np.ndarray
     # modules
     ref: np.ndarray  # (N, 7, 2) reference nodes in each module frame
@@ -82,9 +82,8 @@ class SystemData(NamedTuple):
 
 
 def is_supported(layout: TubeLayout) -> bool:
-    """Whether the compiled kernels cover the layout's chain readings: R1 ``EXACT`` with R3
-    ``ELEMENT`` or ``EDGE_FIT`` (or no connector); R1 ``PAPER`` uses the JAX model."""
-    return layout.n_connectors == 0 or layout.options.chain_offset is ChainOffset.EXACT
+    """Whether the compiled kernels cover the layout's readings (all of R1 and R3 do)."""
+    return layout.n_modules > 0
 
 
 def _reference(kind: ModuleKind, mirror: MirrorConvention, l: float, h: float, h1: float):  # type: ignore[no-untyped-def]
@@ -111,6 +110,7 @@ def system_data(
 ) -> SystemData:
     """The arrays of a tube (lengths in mm, β in rad, law rows (k1, k2, k3, w1, w2))."""
     opts = layout.options
+    paper = opts.chain_offset is ChainOffset.PAPER
     n, nc = layout.n_modules, layout.n_connectors
     h = 2.0 * math.pi * radius
     h2 = pitch * math.tan(beta)
@@ -158,7 +158,8 @@ def system_data(
             [
                 1 if minimum else 0,
                 0 if opts.endpoint is EndpointDefinition.EDGE else 1,
-                1 if opts.chain_attachment is ChainAttachment.EDGE_FIT else 0,
+                1 if opts.chain_attachment is ChainAttachment.EDGE_FIT and not paper else 0,
+                1 if paper else 0,
             ],
             dtype=np.int64,
         ),

@@ -1,24 +1,33 @@
-"""The chain under R3 ``EDGE_FIT`` with exact derivatives (Numba; :mod:`biplan.geometry.chain`).
+"""The chain under the readings other than the default one, with exact derivatives (Numba;
+:mod:`biplan.geometry.chain`).
 
-Each module's edge next to a connector is fitted by the least-squares rigid motion f = (a, t)
-from its reference to its deformed segment ends, each end weighted by half its segment's
-reference length (:func:`biplan.geometry.chain._edge_fit`). With P_i = p_i − p̄ the reference
-ends about their weighted centroid and q_i the deformed ones,
+Under R1 ``EXACT`` with R3 ``ELEMENT`` each connector's frame increment turns by one element
+angle, which :mod:`.chainterm` exploits. Under the other readings the increment's angle and
+offset are general functions of the connector's coordinates x_c = (x_lower, x_upper, γ):
+:func:`increment` gives y_c = (angle, t_z, t_s) with its Jacobian (3, 7) and Hessians
+(3, 7, 7), and :func:`load_point` assembles z_p, ∇z_p and ∇²z_p densely from them (the frames
+compose as F_up = F_lo ∘ y_c either way).
+
+**R3 EDGE_FIT.** Each module's edge next to a connector is fitted by the least-squares rigid
+motion f = (a, t) from its reference to its deformed segment ends, each end weighted by half
+its segment's reference length (:func:`biplan.geometry.chain._edge_fit`). With P_i = p_i − p̄
+the reference ends about their weighted centroid and q_i the deformed ones,
 
     S = Σ w_i (P_z q_s − P_s q_z),  C = Σ w_i (P_z q_z + P_s q_s),  a = atan2(S, C),
     t = q̄ − R(a) p̄
 
 (S, C do not depend on u since Σ w P = 0; an edge node moves with one element angle, so
-∂²/∂φ1∂φ2 = 0). Connector c stacks the upper module on the lower one by the frame increment
+∂²/∂φ1∂φ2 = 0), and connector c stacks the upper module on the lower one by
 
     y_c = f_lo ∘ Trans(l + γ) ∘ f_up⁻¹
         = (a_lo − a_up,  t_lo + R(a_lo)(l + γ, 0) − R(a_lo − a_up) t_up)
 
-(the clamp line for the base connector: a_lo = 0, t_lo = (h − l, 0), h its height), so
-F_up = F_lo ∘ y_c, and the load point's height is a function of the increments exactly as under
-R3 ``ELEMENT`` (:mod:`.chainterm`), except that the increment's angle is not one coordinate:
-:func:`increment` gives y_c with its Jacobian (3, 7) and Hessians (3, 7, 7) in x_c, and
-:func:`load_point` assembles z_p, ∇z_p and ∇²z_p densely from them.
+(the clamp line for the base connector: a_lo = 0, t_lo = (h − l, 0), h its height).
+
+**R1 PAPER.** The SI's literal offset a_m = Δ_m [1, tan θ_m], Δ_m = γ − u_up + l, after the
+lower element's rotation θ about its pivot P (moved by u_lo):
+y_c = (θ, (Δ, Δ tan θ) + P − R(θ) P); (0, Δ, 0) without a full lower element and
+(0, γ − u_up, 0) at the clamp.
 """
 
 from __future__ import annotations
@@ -116,7 +125,53 @@ def fit(d: SystemData, q: np.ndarray, m: int, segs: np.ndarray) -> tuple:  # typ
 @njit(cache=True)
 def increment(d: SystemData, q: np.ndarray, c: int) -> tuple:  # type: ignore[type-arg]
     """(y_c (3,), ∂y_c/∂x_c (3, 7), ∂²y_c/∂x_c² (3, 7, 7)) of connector c: (angle, t_z, t_s),
-    x_c = (x_lower, x_upper, γ) (module docstring)."""
+    x_c = (x_lower, x_upper, γ), under R1 ``PAPER`` or R3 ``EDGE_FIT`` (module docstring)."""
+    if d.flags[3] == 1:
+        return _paper_increment(d, q, c)
+    return _fit_increment(d, q, c)
+
+
+@njit(cache=True)
+def _paper_increment(d: SystemData, q: np.ndarray, c: int) -> tuple:  # type: ignore[type-arg]
+    """:func:`increment` under R1 ``PAPER``."""
+    n = d.ref.shape[0]
+    lo, up, e = d.conn_lower[c], d.conn_upper[c], d.conn_seam[c, 0]
+    gam, u_up = q[3 * n + c], q[3 * up]
+    y, jac, hess = np.zeros(3), np.zeros((3, 7)), np.zeros((3, 7, 7))
+    jac[1, 6], jac[1, 3] = 1.0, -1.0
+    if lo < 0:
+        y[1] = gam - u_up
+        return y, jac, hess
+    dp = gam - u_up + d.scalars[0]
+    if e < 0:
+        y[1] = dp
+        return y, jac, hess
+    u_lo, theta = q[3 * lo], q[3 * lo + 1 + e]
+    pz = d.ref[lo, 0 if e == 0 else 6, 0] + u_lo
+    ps = d.ref[lo, 0 if e == 0 else 6, 1]
+    ct, st = math.cos(theta), math.sin(theta)
+    tn, sec2 = st / ct, 1.0 / (ct * ct)
+    ia = 1 + e
+    y[0] = theta
+    y[1] = dp + pz - (ct * pz - st * ps)
+    y[2] = dp * tn + ps - (st * pz + ct * ps)
+    jac[0, ia] = 1.0
+    jac[1, 0] = 1.0 - ct
+    jac[1, ia] = st * pz + ct * ps
+    jac[2, 6], jac[2, 3], jac[2, 0] = tn, -tn, -st
+    jac[2, ia] = dp * sec2 - (ct * pz - st * ps)
+    hess[1, ia, ia] = ct * pz - st * ps
+    hess[1, ia, 0] = hess[1, 0, ia] = st
+    hess[2, ia, ia] = 2.0 * dp * sec2 * tn + st * pz + ct * ps
+    hess[2, ia, 6] = hess[2, 6, ia] = sec2
+    hess[2, ia, 3] = hess[2, 3, ia] = -sec2
+    hess[2, ia, 0] = hess[2, 0, ia] = -ct
+    return y, jac, hess
+
+
+@njit(cache=True)
+def _fit_increment(d: SystemData, q: np.ndarray, c: int) -> tuple:  # type: ignore[type-arg]
+    """:func:`increment` under R3 ``EDGE_FIT``."""
     n = d.ref.shape[0]
     lo, up, gam = d.conn_lower[c], d.conn_upper[c], q[3 * n + c]
     # the lower fit (a1, t_l) and the upper one (a2, t_u) embedded in x_c's 7 coordinates
