@@ -37,9 +37,9 @@ import numpy as np
 import biplan
 if {oracle}:
     from biplan.model import lagrangian, oracle as _oracle
-    from biplan.solvers import _pathkernel, observe, _dynkernel
+    from biplan.solvers import observe, _dynkernel
     from biplan.analysis.maps import design_map
-    for mod in (lagrangian, _pathkernel, _dynkernel, design_map):
+    for mod in (lagrangian, _dynkernel, design_map):
         for name in ("residual", "kkt_jacobian"):
             if hasattr(mod, name):
                 setattr(mod, name, getattr(_oracle, name))
@@ -64,14 +64,13 @@ for _ in range(3):
     path = biplan.trace_path(model, biplan.ArcLength(), ref, control)
     warm.append(time.perf_counter() - t3)
 states = len(path.load_parameter)
-from biplan.solvers.continuation import _loads
-from biplan.solvers.observe import observe_batch
+from biplan.solvers.continuation import observe_states
 z = np.stack([model.pack(*model.split(s.z)) for s in [ref]] * states)
 ctl = np.asarray(control.coefficients(model))
 obs = []
 for _ in range(3):
     t5 = time.perf_counter()
-    observe_batch(model.layout, model.params, z, _loads(ctl, path.load_parameter))
+    observe_states(model, z, ctl, path.load_parameter)
     obs.append(time.perf_counter() - t5)
 print(json.dumps(dict(observe_ms=1e3 * min(obs) / states, reference=t1 - t0, path=t2 - t1, warm_ms=1e3 * min(warm) / states,
     states=states, status=path.status.name, n_unknowns=model.n_unknowns,

@@ -6,16 +6,17 @@ For each N of ``--sizes`` (default 4 5 6), in one process:
   cold (a new layout: its kernels compile; the persistent cache may hold them) and warm;
 * neighbourhood search (:attr:`~biplan.analysis.states.search.Search.NEIGHBOURHOOD`), warm, with the
   seeds it tried and whether it found the same states;
-* the exhaustive search on one thread (``Enumeration(threads=1)``) against the default (one
-  thread per core), for N ≤ ``--one-thread-max``;
-* the baseline in the same run: the relaxation of every seed in lock-step ``vmap`` chunks of 16
-  (the same pure one-seed ``relax_seed`` the pool runs, as the enumeration ran before the
-  refilled lanes), warm, and its ratio to the pool's relaxation.
+* the baseline in the same run: the exhaustive search on one thread
+  (``Enumeration(threads=1)``) against the default (the seeds of a chunk in parallel, one
+  thread per core), for N ≤ ``--one-thread-max``.
+
+The JAX relaxation pool these searches ran on before the compiled core is gone; its figures
+are in docs/performance.md.
 
 Usage::
 
-    .venv/bin/python benchmarks/bench_states.py [--sizes 4 5 6] [--baseline-max 5]
-        [--one-thread-max 6] [--dask 6] [--sample 10 32]
+    .venv/bin/python benchmarks/bench_states.py [--sizes 4 5 6] [--one-thread-max 6]
+        [--dask 6] [--sample 10 32]
 
 ``--dask N``: the exhaustive search of N modules on a Dask ``LocalCluster`` of 1 and of 2
 workers (pinned, one thread each), timed from the moment the warmed-up cluster is ready to the
@@ -25,7 +26,8 @@ last chunk; the speed-up of 2 workers over 1 (target ≥ 1.6×).
 2-worker ``LocalCluster`` (timed after warm-up), extrapolated to every seed (the N = 10 estimate:
 524,288 seeds, target ≤ 15 min).
 
-Targets (issue "state spaces of long fully bistable tubes"): N = 4 ≤ 0.5 s warm, N = 8 ≤ 60 s.
+Targets (issue "a core without per-layout compilation"): N = 4 ≤ 0.1 s, N = 8 ≤ 30 s warm,
+N = 10 ≤ 10 min on 2 Dask workers.
 """
 
 from __future__ import annotations
@@ -33,19 +35,14 @@ from __future__ import annotations
 import argparse
 import functools
 import time
-from typing import Any
 
 import numpy as np
 
 import biplan
-from biplan._compile.setup import jax, jnp
 from biplan.analysis.states import seeding
 from biplan.analysis.states.catalogue import Enumeration
 from biplan.analysis.states.labels import bistable_folds
 from biplan.analysis.states.search import Search, enumerate_states
-from biplan.solvers._relaxkernel import relax_seed
-
-LOCK_STEP_CHUNK = 16
 
 
 def timed(fn, *args, **kwargs):  # type: ignore[no-untyped-def]
@@ -54,30 +51,9 @@ def timed(fn, *args, **kwargs):  # type: ignore[no-untyped-def]
     return out, time.perf_counter() - t0
 
 
-@functools.lru_cache(maxsize=8)
-def _lock_step_kernel(layout: object) -> object:
-    return jax.jit(
-        jax.vmap(functools.partial(relax_seed, layout), in_axes=(None, 0, 0, None, None, None))
-    )
-
-
-def lock_step(model: biplan.Model, target: np.ndarray, mask: np.ndarray) -> None:
-    settings = Enumeration()
-    fn: Any = _lock_step_kernel(model.layout)
-    args = (
-        jnp.asarray(settings.penalty_stiffness),
-        jnp.asarray(settings.max_iterations),
-        settings.newton.settings(),
-    )
-    for lo in range(0, len(target), LOCK_STEP_CHUNK):
-        t, m = target[lo : lo + LOCK_STEP_CHUNK], mask[lo : lo + LOCK_STEP_CHUNK]
-        fn(model.params, jnp.asarray(t), jnp.asarray(m), *args).z.block_until_ready()
-
-
 def main() -> None:
     parser = argparse.ArgumentParser()
     parser.add_argument("--sizes", type=int, nargs="*", default=[4, 5, 6])
-    parser.add_argument("--baseline-max", type=int, default=5)
     parser.add_argument("--one-thread-max", type=int, default=6)
     parser.add_argument("--dask", type=int, default=0, help="modules of the Dask run (0: none)")
     parser.add_argument("--sample", type=int, nargs=2, default=None, metavar=("N", "CHUNKS"))
@@ -106,21 +82,6 @@ def main() -> None:
                 f"{alone / warm:.2f}x)",
                 flush=True,
             )
-        if n > args.baseline_max:
-            continue
-        folds = bistable_folds(model.tube)
-        bits = seeding.seed_bits(np.arange(2 ** len(folds)), len(folds))
-        target, mask = seeding.seed_targets(model, folds, bits)
-        settings = Enumeration()
-        timed(seeding.relax_seeds, model, target, mask, settings)
-        _, pool = timed(seeding.relax_seeds, model, target, mask, settings)
-        lock_step(model, target[:LOCK_STEP_CHUNK], mask[:LOCK_STEP_CHUNK])
-        _, base = timed(lock_step, model, target, mask)
-        print(
-            f"N={n}: relaxation of all seeds: refilled lanes {pool:.2f} s, lock-step chunks of "
-            f"{LOCK_STEP_CHUNK} {base:.2f} s (baseline / pool {base / pool:.2f}x)",
-            flush=True,
-        )
 
 
 def dask_speedup(n: int) -> None:

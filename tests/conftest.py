@@ -35,7 +35,11 @@ import numpy as np
 import pytest
 
 import biplan  # enables JAX float64
-from biplan._compile.setup import release_compiled_kernels
+from biplan._compile.setup import limit_blas_threads, release_compiled_kernels
+
+# Two test workers share the two cores: BLAS on one thread each (as the CLI runs it), else
+# OpenBLAS's spinning threads slow every dense solve of the compiled core several times.
+limit_blas_threads()
 
 #: Geometry of the SI calibration table (MODEL.md §3, §14).
 GEOMETRY = {"radius": 2.0, "pitch": 3.6, "helical_angle": 60.0}

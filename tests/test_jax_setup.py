@@ -127,36 +127,57 @@ def test_import_help_and_version_load_no_jax():
 
 
 _BLAS_PROBE = (
-    "import os, numpy, scipy.linalg\n"
+    "import os, sys, numpy, scipy.linalg\n"
     "import biplan.model.assembly\n"
     "from threadpoolctl import threadpool_info\n"
-    "blas = [i for i in threadpool_info() if i['user_api'] == 'blas']\n"
-    "assert blas, threadpool_info()\n"
-    "print(sorted({i['num_threads'] for i in blas}), os.environ.get('OPENBLAS_NUM_THREADS'))\n"
+    "def threads():\n"
+    "    blas = [i for i in threadpool_info() if i['user_api'] == 'blas']\n"
+    "    assert blas, threadpool_info()\n"
+    "    return sorted({i['num_threads'] for i in blas})\n"
+    "before = threads()\n"
+    "assert 'jax' not in sys.modules\n"
+    "from biplan._compile.setup import limit_blas_threads\n"
+    "limit_blas_threads()\n"
+    "print(before, threads(), os.environ.get('OPENBLAS_NUM_THREADS'))\n"
 )
 
 
-def _probe(**variables: str) -> subprocess.CompletedProcess[str]:
+def _probe_env(**variables: str) -> dict[str, str]:
     from biplan._compile.setup import BLAS_THREAD_VARIABLES
 
     env = {k: v for k, v in os.environ.items() if k not in BLAS_THREAD_VARIABLES}
     env.pop("BIPLAN_BLAS_THREADS", None)
     env.update(variables)
+    return env
+
+
+def _probe(**variables: str) -> subprocess.CompletedProcess[str]:
     return subprocess.run(
-        [sys.executable, "-c", _BLAS_PROBE], env=env, capture_output=True, text=True
-    )
+        [sys.executable, "-c", _BLAS_PROBE], env=_probe_env(**variables), capture_output=True,
+        text=True,
+    )  # fmt: skip
 
 
-def test_blas_runs_on_one_thread_unless_the_user_chose():
-    """The set-up limits every loaded BLAS (NumPy's and SciPy's OpenBLAS) to one thread, or to
-    BIPLAN_BLAS_THREADS; a user's OPENBLAS_NUM_THREADS is kept; a bad value is refused."""
+def test_blas_threads_are_the_users_until_biplan_runs_its_own_process():
+    """Importing the model changes no BLAS setting of the user's process (nor imports JAX);
+    the limit the CLI and the JAX set-up apply (limit_blas_threads) runs every loaded BLAS
+    (NumPy's and SciPy's OpenBLAS) on one thread, or on BIPLAN_BLAS_THREADS; a user's
+    OPENBLAS_NUM_THREADS is kept; a bad value is refused."""
     default = _probe()
     assert default.returncode == 0, default.stderr[-2000:]
-    assert default.stdout.split() == ["[1]", "1"]
+    before, after, variable = default.stdout.split()
+    assert (after, variable) == ("[1]", "1")
+    plain = subprocess.run(  # the same process without biplan: the library's own count
+        [sys.executable, "-c", _BLAS_PROBE.replace("import biplan.model.assembly\n", "")],
+        env=_probe_env(),
+        capture_output=True,
+        text=True,
+    )
+    assert plain.stdout.split()[0] == before, plain.stderr[-2000:]
     two = _probe(BIPLAN_BLAS_THREADS="2")
-    assert two.stdout.split() == ["[2]", "2"], two.stderr[-2000:]
+    assert two.stdout.split()[-2:] == ["[2]", "2"], two.stderr[-2000:]
     user = _probe(OPENBLAS_NUM_THREADS="2", BIPLAN_BLAS_THREADS="1")
-    assert user.stdout.split() == ["[2]", "2"], user.stderr[-2000:]
+    assert user.stdout.split() == ["[2]", "[2]", "2"], user.stderr[-2000:]
     bad = _probe(BIPLAN_BLAS_THREADS="zero")
     assert bad.returncode != 0
     assert "invalid BIPLAN_BLAS_THREADS = 'zero'" in bad.stderr

@@ -182,21 +182,3 @@ def test_observation_at_rest_equals_the_general_one_at_zero_load(model4) -> None
     rest = observe_batch(lay, p, z, None)
     for name, a, b in zip(general._fields, general, rest, strict=True):
         np.testing.assert_allclose(b, a, rtol=1e-12, atol=1e-12, err_msg=name)
-
-
-def test_the_descent_computes_eigenvalues_only_for_an_indefinite_hessian() -> None:
-    """λ_min as the descent uses it: +∞ when H − floor·I is positive definite (no shift, the
-    curvature test passes), the eigenvalue otherwise — also for a lane of a batch whose other
-    lane is definite."""
-    from biplan.solvers._relaxkernel import SHIFT_FLOOR, _smallest_eigenvalue
-
-    definite = jnp.diag(jnp.array([2.0, 1.0, 3.0]))
-    indefinite = jnp.array([[1.0, 2.0, 0.0], [2.0, 1.0, 0.0], [0.0, 0.0, 1.0]])  # λ = −1, 1, 3
-    barely = jnp.diag(jnp.array([SHIFT_FLOOR / 2, 1.0, 1.0]))
-    assert float(_smallest_eigenvalue(definite, None)) == np.inf
-    assert float(_smallest_eigenvalue(indefinite, None)) == pytest.approx(-1.0)
-    assert float(_smallest_eigenvalue(barely, None)) == pytest.approx(SHIFT_FLOOR / 2)
-    lanes = jax.vmap(lambda h: _smallest_eigenvalue(h, "lanes"), axis_name="lanes")
-    out = np.asarray(lanes(jnp.stack([definite, indefinite, barely])))
-    assert out[0] == np.inf
-    np.testing.assert_allclose(out[1:], [-1.0, SHIFT_FLOOR / 2])

@@ -82,7 +82,7 @@ def _stamp_unlocked_entries(path: Path) -> None:
             atime.write_bytes(stamp)
 
 
-def _limit_blas_threads() -> int | None:
+def limit_blas_threads() -> int | None:
     """Run BLAS on ``$BIPLAN_BLAS_THREADS`` threads (default 1) unless the user chose (module
     docstring). Libraries already loaded are limited through ``threadpoolctl``; those loaded
     later (and child processes) read the environment variables set here. Returns the limit
@@ -136,7 +136,7 @@ def configure() -> None:
         if flag.split("=")[0].removeprefix("--") not in flags:
             flags += " " + flag
     os.environ["XLA_FLAGS"] = flags.strip()
-    _limit_blas_threads()
+    limit_blas_threads()
     jax.config.update("jax_enable_x64", True)
     cache = os.environ.get("BIPLAN_JAX_CACHE", str(Path.home() / ".cache" / "biplan" / "jax"))
     if cache.lower() in {"", "0", "off", "none"} or getattr(

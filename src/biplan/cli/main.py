@@ -76,6 +76,9 @@ def _root(
     ] = False,
 ) -> None:
     """BiPlan simulation of multistable Mixed Folded Tubes (units: mm, N, s)."""
+    from biplan._compile.setup import limit_blas_threads
+
+    limit_blas_threads()  # this process is biplan's own: BLAS on $BIPLAN_BLAS_THREADS threads
 
 
 def main(argv: list[str] | None = None) -> None:

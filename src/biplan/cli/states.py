@@ -90,7 +90,7 @@ def states(
         ),
     ] = "exhaustive",
     yes: Annotated[
-        bool, typer.Option("--yes", help="Run an exhaustive search of more than 4096 seeds.")
+        bool, typer.Option("--yes", help="Run an exhaustive search of more than 65,536 seeds.")
     ] = False,
     resume: Annotated[
         bool, typer.Option("--resume", help="Continue a killed exhaustive search in --out.")

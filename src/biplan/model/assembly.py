@@ -20,7 +20,7 @@ from biplan._errors import ConfigError, check_finite
 from biplan.geometry import chain
 from biplan.geometry.layout import TubeLayout
 from biplan.model.params import Load, ModelParams, StateData
-from biplan.model.system import System, is_supported
+from biplan.model.system import System
 from biplan.model.tube import Tube
 from biplan.options import ContactForm, ModelOptions
 
@@ -110,18 +110,11 @@ class Model:
     def options(self) -> ModelOptions:
         return self.tube.options
 
-    def system(self, load: Load | None = None) -> System | None:
+    def system(self, load: Load | None = None) -> System:
         """The compiled :class:`~biplan.model.system.System` of this model's parameters
         (``self.params``: geometry, laws, contact numbers, bias) at ``load`` (default: at
-        rest), or None where its chain readings are not covered
-        (:func:`~biplan.model.system.is_supported`)."""
-        if not is_supported(self.layout):
-            return None
+        rest)."""
         return self._compiled_system(load)
-
-    def system_at_rest(self) -> System | None:
-        """:meth:`system` at zero end load."""
-        return self.system()
 
     def _compiled_system(self, load: Load | None) -> System:
         cached = self.__dict__.get("_system")

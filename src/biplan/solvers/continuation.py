@@ -13,9 +13,9 @@ pressure) goes to ``load.stop``:
 
 Steps adapt: a corrector that fails (no convergence in ``max_iterations``) halves the step
 (a *cut-back*, counted in ``Path.stats``); easy steps (≤ 3 iterations) grow it by ``grow``, hard
-ones (≥ 7) shrink it. The whole loop is one compiled call per layout (see
-:mod:`biplan.solvers._pathkernel`); the recorded states are then observed in batches
-(:mod:`biplan.solvers.observe`): end force, u_z, u_r, θ, energy by fold, phase fractions, the
+ones (≥ 7) shrink it. The whole loop is one compiled call on the model's system (see
+:mod:`biplan.solvers.path_loop`); the recorded states are then observed in parallel
+(:mod:`biplan.solvers.observation`): end force, u_z, u_r, θ, energy by fold, phase fractions, the
 smallest reduced-Hessian eigenvalue and stability. Where that eigenvalue changes sign between
 two steps, the crossing is located by repeated multisection (bisection generalised to
 ``CHUNK − 1`` interior points per round) on the secant between them, and recorded as a limit
@@ -28,21 +28,15 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from biplan._compile.setup import jnp
 from biplan._errors import ConfigError, ConvergenceError, check_integer, check_range
-from biplan.model.assembly import Load, Model
-from biplan.solvers import _pathkernel as pk
+from biplan.model.assembly import Model
 from biplan.solvers import observation, path_loop
 from biplan.solvers.control import Control
 from biplan.solvers.newton import Newton, Solution, solve_equilibrium
-from biplan.solvers.observe import CHUNK, STABILITY_TOL, Observation, observe_batch
+from biplan.solvers.observe import CHUNK, STABILITY_TOL, Observation
 from biplan.solvers.path_results import Critical, Event, Path, PathStats, PathStatus
 
 __all__ = ["ArcLength", "LoadStepping", "trace_path"]
-
-#: Buffers are allocated in multiples of this (one compiled shape per multiple): every path
-#: of up to 2047 steps shares one compiled loop.
-BUFFER_QUANTUM = 2048
 
 #: Largest contact penetration max(−w_∂) [mm] of a path state: 10 ε. With the contact
 #: compliance c (``ModelOptions.contact_compliance``) a contact carrying λ_∂ closes past flat
@@ -227,36 +221,17 @@ def trace_path(
         )
 
     system = model.system()
-    if system is not None:
-        z, load_parameter, tang, steps, its, count, cutbacks, code = path_loop.path_loop(
-            system.data,
-            first.z,
-            float(load_parameter0),
-            np.asarray(ctl, dtype=float),
-            float(control.stop),
-            method.settings(weight),
-        )
-        z, load_parameter, tang = z[:count], load_parameter[:count], tang[:count]
-        steps, its = steps[:count], its[:count]
-        obs = observe_states(model, z, ctl, load_parameter)
-    else:
-        size = BUFFER_QUANTUM * int(np.ceil((method.max_steps + 1) / BUFFER_QUANTUM))
-        out = pk.path_loop.compiled(model.layout, size)(
-            model.params,
-            jnp.asarray(first.z),
-            jnp.asarray(load_parameter0),
-            jnp.asarray(ctl),
-            jnp.asarray(float(control.stop)),
-            jnp.asarray(method.settings(weight)),
-        )
-        count, cutbacks, code = int(out.count), int(out.cutbacks), int(out.status)
-        z = np.asarray(out.z)[:count]
-        load_parameter = np.asarray(out.load_parameter)[:count]
-        tang = np.asarray(out.tangent)[:count]
-        steps = np.asarray(out.step)[:count]
-        its = np.asarray(out.iterations)[:count]
-        # observed in the path kernel from each state's corrector Jacobian
-        obs = Observation(*(np.asarray(v)[:count] for v in out.observation))
+    z, load_parameter, tang, steps, its, count, cutbacks, code = path_loop.path_loop(
+        system.data,
+        first.z,
+        float(load_parameter0),
+        np.asarray(ctl, dtype=float),
+        float(control.stop),
+        method.settings(weight),
+    )
+    z, load_parameter, tang = z[:count], load_parameter[:count], tang[:count]
+    steps, its = steps[:count], its[:count]
+    obs = observe_states(model, z, ctl, load_parameter)
     status = PathStatus.from_code(int(code))
     if count > 1 and not np.all(np.isfinite(z)):
         status = PathStatus.NONFINITE
@@ -352,20 +327,10 @@ def trace_path(
     return path
 
 
-def _loads(ctl: np.ndarray, load_parameter: np.ndarray) -> Load:
-    load_parameter = np.asarray(load_parameter, dtype=float)
-    return Load(
-        ctl[0] * load_parameter, ctl[1] * load_parameter, np.full_like(load_parameter, ctl[2])
-    )
-
-
 def observe_states(
     model: Model, z: np.ndarray, ctl: np.ndarray, load_parameter: np.ndarray
 ) -> Observation:
-    """The observation of path states z (k, n_z) at Λ (k,): compiled where the model has a
-    system (:mod:`biplan.solvers.observation`), else the JAX kernel."""
-    if model.system() is None:
-        return observe_batch(model.layout, model.params, z, _loads(ctl, load_parameter))
+    """The observation of path states z (k, n_z) at Λ (k,) (:mod:`biplan.solvers.observation`)."""
     lam = np.asarray(load_parameter, dtype=float)
     loads = np.stack([ctl[0] * lam, ctl[1] * lam, np.full_like(lam, ctl[2])], axis=1)
     return observation.observe(model, z, loads)
@@ -449,19 +414,6 @@ def _correct(
     """Correct predictors (zp, Λp) onto the path on the hyperplanes (row_z, row_l)·x = ρ:
     (z, Λ, converged) of each."""
     system = model.system()
-    if system is None:
-        out = pk.corrector.compiled(model.layout)(
-            model.params,
-            jnp.asarray(zp),
-            jnp.asarray(lp),
-            jnp.asarray(ctl),
-            jnp.asarray(np.broadcast_to(row_z, zp.shape)),
-            jnp.asarray(np.full(len(lp), row_l)),
-            jnp.asarray(rho),
-            jnp.asarray(method.atol),
-            jnp.asarray(method.max_iterations),
-        )
-        return np.asarray(out.z), np.asarray(out.load_parameter), np.asarray(out.converged)
     return path_loop.correct_batch(
         system.data,
         np.ascontiguousarray(zp),

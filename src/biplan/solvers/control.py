@@ -1,7 +1,7 @@
 """What a path or trajectory controls: end force, end displacement or internal pressure.
 
 A :class:`Control` names the load parameter Λ and its final value. Λ enters the loading
-affinely (see :func:`biplan.solvers._pathkernel.load_of`):
+affinely, (F, U, d) = (c_F Λ, c_U Λ, d) (:meth:`Control.coefficients`):
 
 * force F [N] — a dead axial end force (MODEL CHOICE W1);
 * displacement U [mm] — the prescribed axial displacement of the load point, reaction −μ;

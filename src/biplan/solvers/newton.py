@@ -15,7 +15,7 @@ from typing import Any
 import numpy as np
 
 from biplan._compile.kernel import kernel
-from biplan._compile.setup import jax, jnp
+from biplan._compile.setup import jax
 from biplan._errors import ConfigError, ConvergenceError, check_integer, check_range
 from biplan.geometry.layout import TubeLayout
 from biplan.model.assembly import Load, Model, kernels
@@ -306,31 +306,7 @@ def solve_equilibrium(
     if not isinstance(load, Load):
         raise ConfigError("load", load, "a biplan Load (Load.of_force / Load.of_displacement)")
     z0 = _start_vector(model, model.zeros() if start is None else start)
-    system = model.system(load)
-    if system is not None:
-        return _solve_compiled(model, system, method, z0, load, throw)
-    loop = solve_loop.compiled(model.layout)
-    jload = load.for_kernel()
-    out, data = loop(model.params, jnp.asarray(z0), jload, method.settings())
-    steps, restarts = int(out.steps), 0
-    q0, lam0, lam_c0, mu0 = model.split(z0)
-    if method.contact_restart and int(out.status) != Status.CONVERGED.value and np.any(lam_c0):
-        # the start's contact multipliers can be smoothing artefacts (Newton.contact_restart)
-        cold = model.pack(q0, lam0, None, mu0)
-        retry, retry_data = loop(model.params, jnp.asarray(cold), jload, method.settings())
-        restarts, steps = 1, steps + int(retry.steps)
-        if int(retry.status) == Status.CONVERGED.value:
-            out, data = retry, retry_data
-    status = Status(int(out.status))
-    rnorm = float(np.max(np.abs(np.asarray(out.r))))
-    # the loop's Jacobian is at its iterate once a pass was accepted (finite merit); a solve
-    # whose start was already non-finite has none, and its state is evaluated afresh
-    data = data if np.isfinite(float(out.f)) else None
-    sol = make_solution(model, np.asarray(out.z), load, status, rnorm, steps, data)
-    sol = replace(sol, restarts=restarts) if restarts else sol
-    if throw and not sol.converged:
-        raise ConvergenceError(f"equilibrium solve for {load}: {sol.message}")
-    return sol
+    return _solve_compiled(model, model.system(load), method, z0, load, throw)
 
 
 def _solve_compiled(

@@ -406,9 +406,8 @@ def observe(
     Parameters
     ----------
     system_or_data : Model, System or SystemData
-        The tube: a :class:`~biplan.Model` (its :meth:`~biplan.Model.system`; the JAX kernels,
-        :func:`biplan.solvers.observe.observe_batch`, where it does not cover the readings),
-        its System or the System's data; a System's own load is ignored.
+        The tube: a :class:`~biplan.Model` (its :meth:`~biplan.Model.system`), its System or
+        the System's data; a System's own load is ignored.
     zs : array_like (k, n_z) or (n_z,)
         Packed states [q, λ, λ_∂, μ].
     loads : array_like (k, 3) or (3,), or Load, optional
@@ -447,14 +446,7 @@ def observe(
         model = source
         if weak_contacts is None:
             weak_contacts = model.options.weak_contacts_active
-        at_rest = not np.any(table[:, 0]) and not np.any(table[:, 2])
         source = model.system()
-        if source is None:  # readings without a compiled system: the JAX kernels
-            from biplan.model.params import Load
-            from biplan.solvers.observe import observe_batch
-
-            columns = Load(table[:, 0], table[:, 1], table[:, 2])
-            return observe_batch(model.layout, model.params, zs, None if at_rest else columns)
     d: SystemData = getattr(source, "data", source)
     finite = np.all(np.isfinite(zs), axis=1) & np.all(np.isfinite(table), axis=1)
     if not finite.all():  # NaN rows of a failed solve: NaN observables, the others as usual

@@ -26,9 +26,6 @@ guide penalty to make the descent stiff):
    otherwise start at the curve's corner) and the guide multipliers by least squares on the
    stationarity rows. Its status and residual are the seed's.
 
-The stages are the same as those of the JAX pool this replaced (``_relaxkernel``): the
-seed and the descent take the same iterates up to rounding; the polish solves the full system
-instead of the reduced one (the same equilibrium, to the Newton tolerance).
 :func:`relax_seeds` runs the seeds in parallel (``prange``).
 """
 

@@ -69,15 +69,12 @@ class Enumeration:
     newton : Newton
         Settings of the final KKT Newton solve (atol is the equilibrium tolerance).
     chunk : int
-        Seeds per call of the compiled relaxation (fixed shape: one compilation for every
-        chunk; the last chunk is padded, its padding costs nothing).
-    lanes : int
-        Seeds in flight inside a call: the descent and the polish run on ``lanes`` refilled
-        ``vmap`` lanes, so a slow seed holds one lane, not the chunk.
+        Seeds per call of the compiled relaxation (a chunk is what a search streams to disk
+        and what a Dask worker runs).
     threads : int
-        Chunks relaxed at once in this process, each on its own thread (a compiled kernel
-        keeps one core busy and releases the GIL); 0 (default): one per core this process
-        may run on. The states do not depend on it.
+        Threads of the compiled relaxation and observation in this process (the seeds of a
+        chunk run in parallel); 0 (default): one per core this process may run on. The
+        states do not depend on it.
     duplicate_tolerance : float
         Two equilibria are the same state when max |Δq| is below this [mm, rad].
     stability_tolerance : float
@@ -88,7 +85,6 @@ class Enumeration:
     max_iterations: int = 300
     newton: Newton = field(default_factory=Newton)
     chunk: int = 128
-    lanes: int = 8
     threads: int = 0
     duplicate_tolerance: float = 1e-5
     stability_tolerance: float = STABILITY_TOL
@@ -97,7 +93,7 @@ class Enumeration:
         check_range("Enumeration.penalty_stiffness", self.penalty_stiffness, low=0.0)
         check_range("Enumeration.duplicate_tolerance", self.duplicate_tolerance, low=0.0)
         check_range("Enumeration.stability_tolerance", self.stability_tolerance, low=0.0)
-        for name in ("max_iterations", "chunk", "lanes"):
+        for name in ("max_iterations", "chunk"):
             v = check_integer(f"Enumeration.{name}", getattr(self, name), low=1)
             object.__setattr__(self, name, v)
         threads = check_integer("Enumeration.threads", self.threads, low=0)

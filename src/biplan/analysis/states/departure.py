@@ -2,18 +2,18 @@
 
 ``departure_force(model, z_start, target)`` ramps the end force (or the end displacement) from
 zero, in the direction that moves the load point toward the target state, solving the KKT
-system at every step from the previous state (:func:`biplan.solvers.newton.newton_loop`). The
-departure state is followed while it stays *the same branch and stable*: the Newton solve
-converges, the coordinates move continuously (no jump to another branch), and the reduced
-Hessian is positive definite (MODEL §12; under displacement control with the end constraint
-active). The first step that breaks this is bracketed and bisected: the critical load is the
-last load at which the branch is still stable — under force control a limit point of the
-force, where the tube snaps.
+system at every step from the previous state (the compiled Newton,
+:func:`biplan.solvers.iteration.newton`). The departure state is followed while it stays *the
+same branch and stable*: the Newton solve converges, the coordinates move continuously (no
+jump to another branch), and the reduced Hessian is positive definite (MODEL §12; under
+displacement control with the end constraint active). The first step that breaks this is
+bracketed and bisected: the critical load is the last load at which the branch is still
+stable — under force control a limit point of the force, where the tube snaps.
 
-The snap is then followed by proximal-point descent (the quasi-static relaxation of
-:mod:`biplan.solvers._relaxkernel`, bias ½κ‖q − q_prev‖² with κ → 0) at a load just past the
-critical one, and the landed state is unloaded to zero load the same way. It lands in the
-target when every fold has the target's majority phase.
+The snap is then followed by proximal-point descent (bias ½κ‖q − q_prev‖² with κ → 0, as
+:func:`biplan.analysis.response.quasistatic.relax`) at a load just past the critical one, and
+the landed state is unloaded to zero load the same way. It lands in the target when every fold
+has the target's majority phase.
 """
 
 from __future__ import annotations
@@ -22,12 +22,11 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from biplan._compile.setup import jnp
 from biplan._errors import ConfigError, ResultStatus, check_integer, check_range
 from biplan.analysis.response.quasistatic import SUB_TOLERANCE, inexact_newton
 from biplan.model.assembly import Load, Model
-from biplan.solvers import observation
-from biplan.solvers.newton import Newton, Status, solve_loop
+from biplan.solvers import iteration, observation
+from biplan.solvers.newton import Newton, Status
 from biplan.solvers.observation import Observation
 
 __all__ = ["Departure", "DepartureStatus", "Ramp", "departure_force"]
@@ -124,32 +123,46 @@ class Departure:
     lands_in_target: bool | None = None
 
 
+def _settings(newton: Newton) -> np.ndarray:
+    return iteration.settings_array(
+        newton.atol, newton.max_steps, newton.max_backtracks, newton.armijo, newton.free_steps
+    )
+
+
 class _Stepper:
     """Newton solves and stability checks at one load value."""
 
     def __init__(self, model: Model, ramp: Ramp) -> None:
         self.model, self.ramp = model, ramp
-        self.loop = solve_loop.compiled(model.layout)
-        self.settings = ramp.newton.settings()
+        self.system = model.system()
+        self.settings = _settings(ramp.newton)
         # the proximal sub-problems of relax() are solved inexactly (as in quasistatic.relax)
-        self.sub_settings = inexact_newton(ramp.newton).settings()
+        self.sub_settings = _settings(inexact_newton(ramp.newton))
         self.d = 1.0 if ramp.displacement_control else 0.0
 
     def load(self, value: float) -> Load:
         f, u = (0.0, value) if self.d else (value, 0.0)
-        # the kernel form solve_equilibrium uses too: a NumPy scalar passed as it is would be
-        # strongly typed and compile the Newton loop a second time
-        return Load(f, u, self.d).for_kernel()
+        return Load(f, u, self.d)
 
-    def solve(self, z: np.ndarray, value: float, params: object = None) -> tuple[np.ndarray, bool]:
-        """Newton at ``value`` from z (``params``: a biased problem of :meth:`relax`, solved
-        inexactly: ``SUB_STEPS`` iterations, converged below ``SUB_TOLERANCE``)."""
-        if params is None:
-            out, _ = self.loop(self.model.params, jnp.asarray(z), self.load(value), self.settings)
-            return np.asarray(out.z), int(out.status) == Status.CONVERGED.value
-        out, _ = self.loop(params, jnp.asarray(z), self.load(value), self.sub_settings)
-        close = float(np.max(np.abs(np.asarray(out.r)))) <= SUB_TOLERANCE
-        return np.asarray(out.z), int(out.status) == Status.CONVERGED.value or close
+    def solve(
+        self, z: np.ndarray, value: float, bias: tuple[np.ndarray, float] | None = None
+    ) -> tuple[np.ndarray, bool]:
+        """Newton at ``value`` from z (``bias``: (anchor, κ) of a biased problem of
+        :meth:`relax`, solved inexactly: ``SUB_STEPS`` iterations, converged below
+        ``SUB_TOLERANCE``)."""
+        f, u = (0.0, value) if self.d else (value, 0.0)
+        system = self.system.at(f, u, self.d)
+        settings = self.settings
+        if bias is not None:
+            system, settings = system.with_bias(*bias), self.sub_settings
+        out = iteration.newton(
+            system.data, system.load, z, settings, iteration.NO_BORDER, 0.0, iteration.NO_STEP
+        )
+        zn, r, status = out[0], out[1], int(out[5])
+        converged = status == Status.CONVERGED.value
+        if bias is None:
+            return zn, converged
+        return zn, converged or float(np.max(np.abs(r))) <= SUB_TOLERANCE
 
     def observe(self, z: np.ndarray, value: float) -> Observation:
         f, u = (0.0, value) if self.d else (value, 0.0)
@@ -175,10 +188,7 @@ class _Stepper:
         nq = self.model.n_coordinates
         kappa, floor = self.ramp.kappa, 1e-6 * self.ramp.kappa
         for _ in range(self.ramp.max_relaxations):
-            p = self.model.params._replace(
-                bias_anchor=jnp.asarray(z[:nq]), bias_stiffness=jnp.asarray(kappa)
-            )
-            zn, ok = self.solve(z, value, p)
+            zn, ok = self.solve(z, value, (z[:nq].copy(), kappa))
             if not (ok and np.all(np.isfinite(zn))):
                 kappa *= 4.0
                 continue

@@ -3,8 +3,8 @@
 :func:`enumerate_states` seeds combinations of closed/open bistable folds — all 2ⁿ of them
 (:attr:`Search.EXHAUSTIVE`; 128 for the four-module fully bistable tube) or those reached by
 single-fold changes from the all-closed one (:attr:`Search.NEIGHBOURHOOD`;
-:mod:`biplan.analysis.states.seeding`) — relaxes them on refilled ``vmap`` lanes
-(:mod:`biplan.solvers._relaxkernel`: a kinematic seed toward the target fold openings, a
+:mod:`biplan.analysis.states.seeding`) — relaxes them in parallel on the model's compiled system
+(:mod:`biplan.solvers.relax_loop`: a kinematic seed toward the target fold openings, a
 modified-Newton descent of the energy at zero end load with the base clamped, and the exact
 KKT solve), classifies each fold by the phase that occupies the greater part of its length,
 keeps the equilibria whose reduced Hessian is positive definite and merges duplicates: two
@@ -26,7 +26,6 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
-from biplan._compile.setup import jnp
 from biplan._errors import ConfigError, ConvergenceError
 from biplan.analysis.stability import Verdict, classify
 from biplan.analysis.states import seeding
@@ -40,7 +39,6 @@ from biplan.analysis.states.catalogue import (
 from biplan.analysis.states.labels import bistable_folds, bits_to_label, label_to_bits
 from biplan.analysis.states.seeding import Search, fold_vector_index, relax_seeds, seed_targets
 from biplan.model.assembly import Load, Model
-from biplan.model.potential import phase_fractions
 from biplan.solvers import observation
 from biplan.solvers.newton import Solution, Status, solve_equilibrium
 
@@ -61,11 +59,7 @@ def state_bits(model: Model, q: np.ndarray) -> tuple[int, ...]:
     """Fold-state bits of coordinates ``q`` (free end first,
     :func:`~biplan.analysis.states.labels.bistable_folds`): 1 where the open branch occupies more of
     the fold's length than the closed one (SI, "Construction of a state transition diagram")."""
-    system = model.system()
-    if system is not None:
-        frac = observation.phase_fractions(system.data, np.asarray(q, dtype=float))
-    else:
-        frac = np.asarray(phase_fractions(model.layout, model.params, jnp.asarray(q)))
+    frac = observation.phase_fractions(model.system().data, np.asarray(q, dtype=float))
     index = [fold_vector_index(model, f) for f in bistable_folds(model.tube)]
     return tuple(int(frac[i, 2] > frac[i, 0]) for i in index)
 

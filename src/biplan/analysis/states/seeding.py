@@ -17,27 +17,25 @@ significant bit (the order of ``itertools.product((0, 1), repeat=n)``).
   — at a cost that grows with the number of states reached, not with 2ⁿ.
 
 Every seed goes through the same compiled relaxation
-(:func:`biplan.solvers._relaxkernel.relax_pool`) and the same observation, so a seed's result
+(:func:`biplan.solvers.relax_loop.relax_seeds`) and the same observation, so a seed's result
 does not depend on the search that tried it.
 """
 
 from __future__ import annotations
 
+import contextlib
 import enum
 import functools
-from collections.abc import Callable
+from collections.abc import Callable, Iterator
 from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
-from biplan._compile.setup import jnp
 from biplan._errors import ConfigError
 from biplan.geometry import FoldRef
 from biplan.model.assembly import Model
-from biplan.model.system import SystemData
 from biplan.model.tube import Tube
 from biplan.solvers import observation, relax_loop
-from biplan.solvers._relaxkernel import relax_pool
 from biplan.solvers.core_settings import Status
 from biplan.solvers.iteration import settings_array
 
@@ -68,12 +66,11 @@ __all__ = [
 #: polish converges to 10⁻⁹, so two seeds that reached one equilibrium agree far closer.
 SHARED_OBSERVATION = 1e-8
 #: Seeds above which a search runs only when confirmed (``confirm=True``, ``--yes``).
-CONFIRM_SEEDS = 2**12
-#: Wall time per seed and thread [s] is about this × N² for N modules (relaxation and
-#: observation, fully bistable tubes, warm kernels, on the 2-core development machine: 1.2 ms
-#: at N = 6 and 1.7 ms at N = 8 on one thread, 3.1 ms at N = 10 per Dask worker;
-#: docs/performance.md).
-SECONDS_PER_SEED = 3.0e-5
+CONFIRM_SEEDS = 2**16
+#: Wall time per seed and thread [s] is about this × N² for N modules (compiled relaxation
+#: and observation, fully bistable tubes, warm kernels, on the 2-core development machine:
+#: 2048 seeds of N = 6 in 2.5 s and 32768 of N = 8 in 35 s on two threads; docs/performance.md).
+SECONDS_PER_SEED = 4.0e-5
 
 Progress = Callable[[int, int], None]
 
@@ -151,56 +148,15 @@ def relax_seeds(
 ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """Relaxation of seeds (rows of ``target``/``mask``): (z, status, residual).
 
-    Seeds go through the compiled pool (:func:`biplan.solvers._relaxkernel.relax_pool`,
-    ``settings.lanes`` lanes) in blocks of ``settings.chunk`` (the last one padded; padding
-    costs nothing), so every block reuses one compilation; ``progress(done, total)`` is called
-    after each block.
+    The seeds of a block of ``settings.chunk`` relax in parallel on the model's compiled
+    system (:func:`biplan.solvers.relax_loop.relax_seeds`); ``progress(done, total)`` is
+    called after each block.
     """
-    system = model.system()
-    if system is not None:
-        return _relax_compiled(system.data, target, mask, settings, progress)
-    lanes = min(settings.lanes, settings.chunk)
-    fn = relax_pool.compiled(model.layout, lanes)
-    stiffness = jnp.asarray(float(settings.penalty_stiffness))
-    iterations = jnp.asarray(settings.max_iterations)
-    newton = settings.newton.settings()
-    k, chunk = len(target), settings.chunk
-    zs, status, residual = [], [], []
-    for lo in range(0, k, chunk):
-        hi = min(lo + chunk, k)
-        pad = chunk - (hi - lo)
-        t = np.concatenate([target[lo:hi], np.repeat(target[hi - 1 : hi], pad, axis=0)])
-        m = np.concatenate([mask[lo:hi], np.repeat(mask[hi - 1 : hi], pad, axis=0)])
-        out = fn(
-            model.params,
-            jnp.asarray(t),
-            jnp.asarray(m),
-            jnp.asarray(hi - lo),
-            stiffness,
-            iterations,
-            newton,
-        )
-        zs.append(np.asarray(out.z)[: hi - lo])
-        status.append(np.asarray(out.status)[: hi - lo])
-        residual.append(np.asarray(out.residual)[: hi - lo])
-        if progress is not None:
-            progress(hi, k)
-    return np.concatenate(zs), np.concatenate(status), np.concatenate(residual)
-
-
-def _relax_compiled(
-    data: SystemData,
-    target: np.ndarray,
-    mask: np.ndarray,
-    settings: Enumeration,
-    progress: Progress | None,
-) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """:func:`relax_seeds` on the compiled system (:func:`biplan.solvers.relax_loop.relax_seeds`,
-    the seeds of a block of ``settings.chunk`` in parallel)."""
     newton = settings.newton
     method = settings_array(
         newton.atol, newton.max_steps, newton.max_backtracks, newton.armijo, newton.free_steps
     )
+    data = model.system().data
     k, chunk = len(target), settings.chunk
     zs, status, residual = [], [], []
     for lo in range(0, k, chunk):
@@ -270,12 +226,13 @@ def evaluate(
     ``theta`` [rad], ``phase_fraction`` (N + Nc, 3)."""
     indices = np.asarray(indices, dtype=np.int64)
     target, mask = seed_targets(model, folds, seed_bits(indices, len(folds)))
-    z, status, residual = relax_seeds(model, target, mask, settings, progress)
-    finite = np.all(np.isfinite(z), axis=1)
-    rep = merge_rows(z[:, : model.layout.n_coordinates], finite, SHARED_OBSERVATION)
-    rep = np.where(finite, rep, np.arange(len(z)))
-    observed = np.flatnonzero(rep == np.arange(len(z)))
-    obs = observation.observe(model, z[observed])
+    with _threads(thread_count(settings)):
+        z, status, residual = relax_seeds(model, target, mask, settings, progress)
+        finite = np.all(np.isfinite(z), axis=1)
+        rep = merge_rows(z[:, : model.layout.n_coordinates], finite, SHARED_OBSERVATION)
+        rep = np.where(finite, rep, np.arange(len(z)))
+        observed = np.flatnonzero(rep == np.arange(len(z)))
+        obs = observation.observe(model, z[observed])
     position = np.zeros(len(z), dtype=np.int64)
     position[observed] = np.arange(len(observed))
     obs = type(obs)(*(np.asarray(v)[position[rep]] for v in obs))
@@ -320,11 +277,17 @@ def thread_count(settings: Enumeration) -> int:
     return settings.threads or available_cores()
 
 
-def _local_runner(settings: Enumeration) -> Any:
-    from biplan.analysis.scaleout import thread_runner
+@contextlib.contextmanager
+def _threads(n: int) -> Iterator[None]:
+    """Numba's parallel kernels on at most ``n`` threads inside the block."""
+    import numba
 
-    n = thread_count(settings)
-    return thread_runner(n) if n > 1 else None
+    before = numba.get_num_threads()
+    numba.set_num_threads(max(1, min(n, numba.config.NUMBA_NUM_THREADS)))
+    try:
+        yield
+    finally:
+        numba.set_num_threads(before)
 
 
 def _chunks(indices: np.ndarray, size: int) -> list[np.ndarray]:
@@ -341,14 +304,13 @@ def exhaustive(
 ) -> dict[str, np.ndarray]:
     """Every seed, chunk by chunk (:func:`evaluate`): chunks already in ``sink`` are loaded,
     the others computed by ``runner`` (:mod:`biplan.analysis.scaleout`; default this process,
-    on :func:`thread_count` threads) and saved to ``sink`` as they finish; the result is in
-    seed order either way."""
+    the seeds of a chunk on :func:`thread_count` threads) and saved to ``sink`` as they
+    finish; the result is in seed order either way."""
     from biplan.analysis.maps.sweeps import run_chunks
 
     chunks = _chunks(np.arange(2 ** len(folds)), settings.chunk)
-    if runner is None:
+    if runner is None:  # this process: chunk after chunk, the seeds of each in parallel
         task: Any = functools.partial(evaluate, model, folds, settings=settings)
-        runner = _local_runner(settings)
     else:
         task = functools.partial(evaluate_chunk, model.tube, settings)
     results = run_chunks(task, chunks, runner=runner, sink=sink, progress=progress)
@@ -363,8 +325,8 @@ def neighbourhood(
 ) -> dict[str, np.ndarray]:
     """Seeds reached from the all-closed seed through Hamming-1 neighbours of the fold states
     of stable equilibria (module docstring); results in seed order. ``progress(done, total)``
-    counts seeds tried against seeds known so far. Each round's seeds run in chunks on
-    :func:`thread_count` threads."""
+    counts seeds tried against seeds known so far. Each round's seeds run in chunks, the seeds
+    of a chunk on :func:`thread_count` threads."""
     from biplan.analysis.maps.sweeps import run_chunks
 
     n = len(folds)
@@ -375,7 +337,7 @@ def neighbourhood(
     task = functools.partial(evaluate, model, folds, settings=settings)
     while frontier.size:
         chunks = _chunks(frontier, settings.chunk)
-        done = run_chunks(task, chunks, runner=_local_runner(settings))
+        done = run_chunks(task, chunks)
         part = _concatenate([done[c] for c in range(len(chunks))])
         parts.append(part)
         tried.update(int(i) for i in frontier)

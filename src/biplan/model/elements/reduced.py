@@ -16,7 +16,7 @@ The reduced coordinates x = (u_1 … u_N, γ_1 … γ_Nc) (N + Nc numbers, the t
 freedom before contact) satisfy the guides exactly. In them the strain energy is again a sum
 of local terms: a module's helical field depends on its own u, a connector's fields and gaps
 on (u_lower, u_upper, γ) only. :func:`penalized_terms` evaluates the penalised energy of the
-state search's descent (:mod:`biplan.solvers._relaxkernel`)
+state search's descent (the JAX reading of :mod:`biplan.model.system.reduced`)
 
     Π(q(x)) + ½ k_p ‖min(w_∂(q(x)), 0)‖²
 

@@ -20,10 +20,10 @@ import numpy as np
 from biplan._compile import numba_cache  # first: the kernels' cache locator
 from biplan.geometry.layout import TubeLayout
 from biplan.model.system import assemble, chainterm
-from biplan.model.system.tables import SystemData, is_supported, system_data
+from biplan.model.system.tables import SystemData, system_data
 from biplan.model.tube import Tube
 
-__all__ = ["System", "SystemData", "is_supported", "system_data"]
+__all__ = ["System", "SystemData", "system_data"]
 
 
 @dataclass(frozen=True)
@@ -46,7 +46,7 @@ class System:
     def of(
         tube: Tube, force: float = 0.0, displacement: float = 0.0, control: float = 0.0
     ) -> System:
-        """The system of a tube at a load (its readings must be :func:`is_supported`)."""
+        """The system of a tube at a load."""
         dev = tube.development
         return System.of_numbers(
             tube.layout,

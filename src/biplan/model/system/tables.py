@@ -26,7 +26,7 @@ from biplan.options import (
     ModuleKind,
 )
 
-__all__ = ["SystemData", "is_supported", "system_data"]
+__all__ = ["SystemData", "system_data"]
 
 
 class SystemData(NamedTuple):
@@ -79,11 +79,6 @@ class SystemData(NamedTuple):
     bias_anchor: np.ndarray  # (n_q,) anchor of the proximal bias ½κ‖q − q_a‖²
     bias_stiffness: np.ndarray  # (1,) κ
     load_reference: np.ndarray  # (1,) Z(0), the load point at q = 0 [mm] (geometry only)
-
-
-def is_supported(layout: TubeLayout) -> bool:
-    """Whether the compiled kernels cover the layout's readings (all of R1 and R3 do)."""
-    return layout.n_modules > 0
 
 
 def _reference(kind: ModuleKind, mirror: MirrorConvention, l: float, h: float, h1: float):  # type: ignore[no-untyped-def]
