@@ -55,9 +55,10 @@ LARGE_MODULES = 48
 MAX_MODULES = 400
 #: Map points per second on one thread (warm, six-module design, in-process, while the
 #: machine's other core was busy) by evaluator name: the force-ramp design map in chunks of
-#: 16 (64 points in 2.4 s), the stability map in chunks of whole rows (128 points in 51 s),
-#: the first-instability map (9 points in 5.3 s).
-MAP_POINT_RATE = {"force_ramp_response": 26.0, "stability_count": 2.5, "first_instability": 1.7}
+#: 16 (64 points in 0.31 s), the stability map in chunks of whole rows (4 × 32 points,
+#: U/l₀ ≤ 0.32, in 2.7 s), both on the compiled System (``NUMBA_NUM_THREADS=1``), the
+#: first-instability map (9 points in 5.3 s).
+MAP_POINT_RATE = {"force_ramp_response": 200.0, "stability_count": 45.0, "first_instability": 1.7}
 
 
 @dataclass(frozen=True)

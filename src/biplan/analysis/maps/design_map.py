@@ -7,11 +7,12 @@ was lost, and the solve status.
 
 Reading (documented in docs/maps.md): the ramp is followed **quasi-statically** — Newton load
 stepping at the ramp's force levels F_k = Ḟ t_k, each step warm-started from the previous
-equilibrium, batched over the grid with ``jax.vmap``. The paper's ramp is dynamic, but the
-tube's inertia is tiny (μ = 3.6e-10 t/mm², lowest periods ~ms against a 2 s ramp), so between
-snaps the dynamic response is the quasi-static one; a batched generalized-α run would need
-~200 adaptive steps per point in lock-step (step halving is per point, so vmap is
-inefficient) and costs ~10× more. Where stability is lost the two readings can differ in the
+equilibrium, one compiled call per design on its System (:func:`biplan.solvers.batch.ramp`;
+other chain readings: one JAX kernel call per batch of designs, ``jax.vmap``;
+:mod:`biplan.analysis.maps.design_kernels`). The paper's ramp is dynamic, but the tube's
+inertia is tiny (μ = 3.6e-10 t/mm², lowest periods ~ms against a 2 s ramp), so between snaps
+the dynamic response is the quasi-static one; a generalized-α run would need ~200 adaptive
+steps per point and costs ~10× more. Where stability is lost the two readings can differ in the
 branch reached after the snap; such points are flagged (``stability_lost``) and the time is
 recorded (``time_lost``). Loss of stability at step k: λ_min(H_r) ≤ 0 at the equilibrium, a
 failed step (no nearby equilibrium: a limit point was passed) or a snap (the load-point
@@ -19,7 +20,7 @@ displacement increment of the step exceeds ``snap_factor`` × the mean increment
 preceding steps).
 
 :func:`response_point` is the scalar (one design, one Newton solve per step) reference of the
-batched kernel; the test-suite checks that both agree.
+map's ramp; the test-suite checks that both agree.
 """
 
 from __future__ import annotations
@@ -30,25 +31,19 @@ from typing import Any
 
 import numpy as np
 
-from biplan._compile.kernel import kernel
-from biplan._compile.setup import jax, jnp
 from biplan._errors import ConfigError, check_integer, check_range
+from biplan.analysis.maps.design_kernels import (
+    point_solvers,
+    ramp_compiled,
+    ramp_jax,
+    stack_params,
+)
 from biplan.analysis.response.ramp_dynamics import continue_ramp
-from biplan.geometry import chain
-from biplan.geometry.layout import TubeLayout
-from biplan.model.assembly import Load, Model, kernels
-from biplan.model.lagrangian import kkt_jacobian, residual
-from biplan.model.potential import contact_gaps, load_height
+from biplan.model.assembly import Load, Model
 from biplan.model.tube import Tube
-from biplan.solvers.core_settings import Settings
-from biplan.solvers.newton import Newton, Status, newton_loop, solve_equilibrium
-from biplan.solvers.observe import kkt_min_eigenvalue, observe_batch
-from biplan.solvers.strategies import chord
+from biplan.solvers.newton import Newton, Status, solve_equilibrium
 
 __all__ = ["ForceRamp", "ResponseEvaluator", "ramp_batches", "response_point", "stack_params"]
-
-Array = Any
-
 
 #: Readings of a failed load step (a passed limit point): see ``ForceRamp.after_snap``.
 AFTER_SNAP = ("dynamic", "stop")
@@ -155,71 +150,6 @@ class ForceRamp:
             max_backtracks=self.max_backtracks,
             free_steps=self.free_steps,
         )
-
-
-#: Name of the design (vmap) axis of the batched ramp (Newton skips work no lane needs).
-LANES = "designs"
-#: Most chord iterations (the previous equilibrium's Jacobian, residuals only) per load step.
-CHORD_ITERATIONS = 8
-
-
-@kernel("chord")
-def _chord(layout: TubeLayout, p: Any, z: Array, jac: Array, load: Load, atol: Array) -> Array:
-    """The start of a load step: :func:`biplan.solvers.strategies.chord` at ``load`` with the
-    previous equilibrium's KKT Jacobian ``jac`` (at most :data:`CHORD_ITERATIONS` steps)."""
-    return chord(lambda zc: residual(layout, p, zc, load), jac, z, atol, CHORD_ITERATIONS)
-
-
-@kernel("design_lanes", statics=2, in_axes=(0, None, None, None), axis_name=LANES)
-def _path(
-    layout: TubeLayout,
-    free_steps: int,
-    p: Any,
-    z0: Array,
-    forces: Array,
-    settings: Settings,
-    axis_name: str | None = None,
-) -> tuple:
-    """Load stepping through ``forces`` from z0 (pure; vmapped over designs, the vmap axis
-    named ``axis_name``).
-
-    Each step starts with up to :data:`CHORD_ITERATIONS` chord iterations at the new load with
-    the KKT Jacobian of the previous equilibrium (cheap: residuals and solves only) and is
-    finished by the globalised :func:`newton_loop`, whose first pass also evaluates the
-    Jacobian at the converged state. Stability is read from that Jacobian
-    (:func:`kkt_min_eigenvalue`), so no second Hessian is evaluated per step.
-    """
-    zero = jnp.asarray(0.0)
-    weak = layout.options.weak_contacts_active
-    nq = layout.n_coordinates
-
-    def body(carry: tuple, f: Array) -> tuple:
-        z, jac, alive = carry
-        load = Load(f, zero, zero)
-        start = _chord(layout, p, z, jac, load, settings.atol)
-        out = newton_loop(
-            layout, p, start, load, settings, free_steps=free_steps, axis_name=axis_name
-        )
-        ok = alive & (out.status == Status.CONVERGED.value) & jnp.all(jnp.isfinite(out.z))
-        q = out.z[:nq]
-        end = chain.endpoint(layout, p.geometry, q)
-        min_eig = kkt_min_eigenvalue(layout, out.z, out.jac, contact_gaps(layout, p, q), load, weak)
-        first_bad = jnp.where(alive & ~ok, out.status, -1)
-        z_next = jnp.where(ok, out.z, z)
-        jac_next = jnp.where(ok, out.jac, jac)
-        rec = (ok, first_bad, end.u_z, end.u_r, load_height(layout, p, q), min_eig)
-        return (z_next, jac_next, ok), rec
-
-    jac0 = kkt_jacobian(layout, p, z0, Load(forces[0], zero, zero))
-    carry, outs = jax.lax.scan(body, (z0, jac0, jnp.asarray(True)), forces)  # type: ignore[var-annotated]
-    return carry[0], outs
-
-
-def stack_params(models: Sequence[Model], batch: int) -> Any:
-    """The ModelParams of ``models`` stacked along a leading axis, padded to ``batch`` by
-    repeating the last one."""
-    ps = [m.params for m in models] + [models[-1].params] * (batch - len(models))
-    return jax.tree_util.tree_map(lambda *a: jnp.stack([jnp.asarray(x) for x in a]), *ps)
 
 
 def _summarise(
@@ -369,8 +299,10 @@ class ResponseEvaluator:
 def ramp_batches(
     tubes: Sequence[Tube], ramp: ForceRamp, batch: int
 ) -> Iterator[tuple[list[int], list[Model], tuple[np.ndarray, ...], np.ndarray]]:
-    """The quasi-static ramp of ``tubes`` in batched kernel calls (one compilation per layout,
-    every call padded to ``batch`` designs).
+    """The quasi-static ramp of ``tubes``, ``batch`` designs at a time: on the compiled System
+    of each design (:func:`~biplan.analysis.maps.design_kernels.ramp_compiled`), else in
+    batched JAX kernel calls (one compilation per layout, every call padded to ``batch``
+    designs; :func:`~biplan.analysis.maps.design_kernels.ramp_jax`).
 
     Yields
     ------
@@ -380,31 +312,33 @@ def ramp_batches(
         Their models.
     records : tuple of ndarray, each (len(part), n_steps + 1)
         Per design and load step: converged, the failing status (−1 none), u_z, u_r [mm], the
-        load-point displacement [mm] and λ_min of the reduced Hessian.
+        load-point displacement [mm] and λ_min of the reduced Hessian [N/mm] (only the
+        converged steps are meaningful).
     z_last : ndarray, shape (len(part), n_z)
         The last converged packed state of each design.
     """
     groups: dict[Any, list[int]] = {}
     for i, t in enumerate(tubes):
         groups.setdefault(t.layout, []).append(i)
-    forces = jnp.asarray(ramp.forces)
-    settings = ramp.newton().settings()
+    newton = ramp.newton()
     for layout, which in groups.items():
         models = [Model(tubes[i]) for i in which]
-        z0 = jnp.asarray(models[0].pack(models[0].zeros()))
+        compiled = all(m.system() is not None for m in models)
         for lo in range(0, len(which), batch):
-            part = which[lo : lo + batch]
-            params = stack_params(models[lo : lo + batch], batch)
-            z_last, rec = _path.compiled(layout, ramp.free_steps)(params, z0, forces, settings)
-            records = tuple(np.asarray(r)[: len(part)] for r in rec)
-            yield part, models[lo : lo + batch], records, np.asarray(z_last)[: len(part)]
+            part, chunk = which[lo : lo + batch], models[lo : lo + batch]
+            if compiled:
+                records, z_last = ramp_compiled(chunk, ramp.forces, newton)
+            else:
+                records, z_last = ramp_jax(layout, chunk, ramp.forces, newton, batch)
+            yield part, chunk, records, z_last
 
 
 def response_point(tube: Tube, ramp: ForceRamp | None = None) -> dict[str, float]:
     """Scalar reference of :class:`ResponseEvaluator` for one design: the same chord
-    iterations (:func:`_chord`, unbatched) and one Newton solve per load step
-    (``solve_equilibrium``), observed with ``observe_batch`` (which evaluates the Hessian
-    afresh: an independent check of the Jacobian-block stability test of the batched kernel).
+    iterations and one Newton solve per load step (``solve_equilibrium``), observed with a
+    fresh evaluation of each Hessian (an independent check of the Jacobian-block stability
+    test of the map's ramp); on the compiled System where the design has one, else on the
+    JAX kernels (:func:`~biplan.analysis.maps.design_kernels.point_solvers`).
 
     Returns
     -------
@@ -414,16 +348,14 @@ def response_point(tube: Tube, ramp: ForceRamp | None = None) -> dict[str, float
     ramp = ramp or ForceRamp()
     model = Model(tube)
     solver = ramp.newton()
-    kk = kernels(model.layout)
-    chord = _chord.compiled(model.layout)
-    params = model.params
+    jacobian, chord_start, observe = point_solvers(model, ramp.atol)
     z = np.asarray(model.pack(model.zeros()))
-    jac = np.asarray(kk.jacobian(params, z, Load.of_force(float(ramp.forces[0]))))
+    jac = jacobian(z, Load.of_force(float(ramp.forces[0])))
     ok, first_bad, zs = [], [], []
     alive = True
     for f in ramp.forces:
         load = Load.of_force(float(f))
-        start = chord(params, jnp.asarray(z), jnp.asarray(jac), load, jnp.asarray(ramp.atol))
+        start = chord_start(z, jac, load)
         sol = solve_equilibrium(model, solver, start, load)
         good = alive and sol.converged and bool(np.all(np.isfinite(sol.z)))
         first_bad.append(sol.status.value if alive and not good else -1)
@@ -431,10 +363,10 @@ def response_point(tube: Tube, ramp: ForceRamp | None = None) -> dict[str, float
         zs.append(sol.z if good else z)
         if good:
             z = np.asarray(sol.z)
-            jac = np.asarray(kk.jacobian(params, z, load))
+            jac = jacobian(z, load)
         alive = good
     forces = ramp.forces
-    obs = observe_batch(model.layout, model.params, np.asarray(zs), Load(forces, 0.0 * forces, 0.0))
+    obs = observe(np.asarray(zs), Load(forces, 0.0 * forces, 0.0))
     res = _summarise(
         ramp,
         np.asarray([ok]),

@@ -34,15 +34,18 @@ default C at b = 0.58) the distinct equilibria are searched for and classified:
    more than once (neighbouring points alternate), up to the point from which the final
    regime holds.
 
-The fixed seeds of a chunk, (points × seeds), run as one task queue on a lane-refilling Newton
-pool (:func:`biplan.solvers.pool.newton_pool`, ``solve_batch`` lanes, one compiled kernel per
-layout, lane count and size bucket of the chunk, :func:`points_per_kernel`): a lane whose seed
-has converged or failed takes the next seed, so a slow seed no longer holds up a whole batch.
-Each march step solves the continuation seeds of all rows of the chunk on a pool of
-``march_lanes`` lanes. Only one solution per distinct equilibrium and point is observed
-(Hessian, λ_min), the copies share its values. Continuation stays inside a chunk, so rows
-should not straddle chunks (the CLI sizes the chunks to whole rows, at least 128 points:
-:func:`stability_chunk_size`).
+Where the model has a compiled System (:meth:`~biplan.model.assembly.Model.system`, the
+default chain readings) every solve runs on it: the tasks of each point (seeds or
+continuation starts) are solved in parallel by the compiled Newton
+(:func:`biplan.solvers.batch.solve_tasks`, one compilation per install, whatever the layout or
+chunk) and observed by :func:`biplan.solvers.observation.observe`. Other readings use the JAX
+kernels: the tasks of a chunk run as one task queue on a lane-refilling Newton pool
+(:func:`biplan.solvers.pool.newton_pool`, ``solve_batch`` lanes for the fixed seeds and
+``march_lanes`` for a march step, one compiled kernel per layout, lane count and size bucket
+of the chunk, :func:`points_per_kernel`), which runs the same iteration per task. Only one
+solution per distinct equilibrium and point is observed (Hessian, λ_min), the copies share
+its values. Continuation stays inside a chunk, so rows should not straddle chunks (the CLI
+sizes the chunks to whole rows, at least 128 points: :func:`stability_chunk_size`).
 """
 
 from __future__ import annotations
@@ -53,9 +56,6 @@ from typing import Any
 
 import numpy as np
 
-from biplan._compile.kernel import kernel
-from biplan._compile.setup import jax, jnp
-from biplan.analysis.maps.design_map import stack_params
 from biplan.analysis.maps.stability_search import (
     Continuation,
     Solutions,
@@ -63,12 +63,11 @@ from biplan.analysis.maps.stability_search import (
     same_equilibrium,
 )
 from biplan.analysis.maps.stability_seeds import max_seeds, pushing, seeds
+from biplan.analysis.maps.stability_solve import CompiledTasks, solve_and_observe, task_solver
 from biplan.geometry.layout import TubeLayout
-from biplan.model.assembly import Load, Model
+from biplan.model.assembly import Model
 from biplan.model.tube import Tube
-from biplan.solvers.newton import Newton, Status
-from biplan.solvers.observe import STABILITY_TOL, observe
-from biplan.solvers.pool import newton_pool
+from biplan.solvers.observe import STABILITY_TOL
 
 __all__ = [
     "StabilityEvaluator",
@@ -77,30 +76,16 @@ __all__ = [
     "transition_band",
 ]
 
-Array = Any
-
 #: Regime codes of ``regime``.
 REGIMES = {"none": 0, "monostable": 1, "bistable": 2, "multistable": 3}
 
 
-@kernel("stability_observe", in_axes=(0, 0, 0))
-def _observe(layout: TubeLayout, p: Any, z: Array, u: Array) -> tuple:
-    load = Load(jnp.asarray(0.0), u, jnp.asarray(1.0))
-    ob = observe(layout, p, z, load, layout.options.weak_contacts_active)
-    return ob.energy, ob.min_eigenvalue, ob.u_z, ob.u_r, ob.force
-
-
-#: Lanes of the observation kernel: fixed, so that the march (``march_lanes``) and the seed
-#: pool (``solve_batch``) share one compiled observation.
-OBSERVE_LANES = 8
-
-
 def points_per_kernel(n_points: int) -> int:
-    """Points (rows of the stacked parameters) of the compiled search kernels for a chunk of
-    ``n_points``: rounded up to a power of two, at least 8. The pool's shapes are set by the
-    padded points and tasks (padding tasks are never solved), so chunks and grids of other
-    sizes in the same bucket share one compiled pool instead of compiling their own
-    (25–45 s each on two cores)."""
+    """Points (rows of the stacked parameters) of the JAX search kernels (the fallback of
+    readings without a compiled System) for a chunk of ``n_points``: rounded up to a power of
+    two, at least 8. The pool's shapes are set by the padded points and tasks (padding tasks
+    are never solved), so chunks and grids of other sizes in the same bucket share one
+    compiled pool instead of compiling their own (25–45 s each on two cores)."""
     return max(8, 1 << (max(int(n_points), 1) - 1).bit_length())
 
 
@@ -158,56 +143,6 @@ class StabilityEvaluator:
                 "units": "1", "long_name": "1 inside the transition band"})  # fmt: skip
         return ds
 
-    def _solve_all(
-        self,
-        layout: TubeLayout,
-        params: Any,
-        rows: np.ndarray,
-        z0: np.ndarray,
-        u: np.ndarray,
-        capacity: int,
-        lanes: int,
-        newton: Newton,
-    ) -> list[np.ndarray]:
-        """Solve every (point row, seed) task on a lane-refilling pool of ``lanes`` lanes
-        (:func:`biplan.solvers.pool.newton_pool`), then observe the converged ones."""
-        n = len(rows)
-        cap = max(capacity, n)
-        pad = cap - n
-        point = np.r_[rows, np.zeros(pad, dtype=int)].astype(np.int32)
-        zz = np.concatenate([z0, np.repeat(z0[-1:], pad, axis=0)])
-        uu = np.r_[u, np.zeros(pad)]
-        loads = Load(jnp.zeros(cap), jnp.asarray(uu), jnp.ones(cap))
-        res = newton_pool.compiled(layout, lanes)(
-            params, jnp.asarray(point), jnp.asarray(zz), loads, jnp.asarray(n),
-            newton.settings(),
-        )  # fmt: skip
-        z = np.asarray(res.z)[:n]
-        ok = (np.asarray(res.status)[:n] == Status.CONVERGED.value) & np.all(np.isfinite(z), 1)
-        obs = [np.full(n, np.nan) for _ in range(5)]
-        # observe one solution per distinct equilibrium of a point; copies share its values
-        nq = layout.n_coordinates
-        rep = np.arange(n)
-        for j in np.unique(rows[ok]):
-            sel = np.flatnonzero(ok & (rows == j))
-            for a, i in enumerate(sel):
-                near = same_equilibrium(z[sel[:a]], z[i], nq, self.search.distinct_tol)
-                if near.any():
-                    rep[i] = rep[sel[:a][near][0]]
-        idx = np.flatnonzero(ok & (rep == np.arange(n)))
-        fn = _observe.compiled(layout)
-        for lo in range(0, idx.size, OBSERVE_LANES):
-            part = idx[lo : lo + OBSERVE_LANES]
-            full = np.r_[part, np.full(OBSERVE_LANES - part.size, part[-1])]
-            p = jax.tree_util.tree_map(lambda a, r=rows[full]: a[r], params)
-            out = fn(p, jnp.asarray(z[full]), jnp.asarray(u[full]))
-            for o, v in zip(obs, out, strict=True):
-                o[part] = np.asarray(v)[: part.size]
-        copies = np.flatnonzero(ok & (rep != np.arange(n)))
-        for o in obs:
-            o[copies] = o[rep[copies]]
-        return [z, ok, *obs]
-
     def evaluate(
         self, tubes: Sequence[Tube], loads: Sequence[Mapping[str, float]], batch: int
     ) -> dict[str, np.ndarray]:
@@ -241,10 +176,11 @@ class StabilityEvaluator:
         s = self.search
         models = [Model(t) for t in tubes]
         size = points_per_kernel(max(batch, len(models)))
-        params = stack_params(models, size)
         kind = s.seed_kind(tubes[0].n_circular)
         n_seeds = max_seeds(tubes[0].n_circular, kind)
         capacity = size * max(n_seeds, 2 * s.max_equilibria)
+        solver = task_solver(layout, models, size, capacity)
+        systems = solver.systems if isinstance(solver, CompiledTasks) else None
         u = [
             float(ld["displacement"]) * t.initial_length for ld, t in zip(loads, tubes, strict=True)
         ]
@@ -256,8 +192,8 @@ class StabilityEvaluator:
             lanes = (
                 s.march_lanes if cont and s.continuation is Continuation.MARCH else s.solve_batch
             )
-            sols = self._solve_all(layout, params, r, np.asarray(z0), np.asarray(u)[r],
-                                   capacity, lanes, s.newton(cont))  # fmt: skip
+            sols = solve_and_observe(solver, r, np.asarray(z0), np.asarray(u)[r], lanes,
+                                     s.newton(cont), nq, s.distinct_tol)  # fmt: skip
             acc.add(r, sols)
             return sols
 
@@ -279,7 +215,8 @@ class StabilityEvaluator:
             rows, z0 = [], []
             for j in range(len(models)) if pressed_elsewhere else points:
                 push = None if pushes is None else pushes[j]
-                sd = seeds(models[j], u[j], kind, pressed_only=j not in points, pushes=push)
+                sd = seeds(models[j], u[j], kind, pressed_only=j not in points, pushes=push,
+                           system=None if systems is None else systems[j])  # fmt: skip
                 rows += [j] * len(sd)
                 z0 += list(sd)
             if rows:

@@ -56,8 +56,10 @@ class StabilitySearch:
         max_steps · (max_backtracks + 1) residual evaluations; most converge in 6–8, the rest
         are seeds far from any equilibrium, which should fail fast.
     solve_batch : int
-        Lanes of the solve pool (:func:`biplan.solvers.pool.newton_pool`: solves in flight,
-        a finished lane takes the next seed) for the fixed seeds, ≥ 1.
+        Lanes of the JAX solve pool (:func:`biplan.solvers.pool.newton_pool`: solves in
+        flight, a finished lane takes the next seed) for the fixed seeds, ≥ 1; used only for
+        readings without a compiled System (the compiled search solves every task of a point
+        in parallel).
     continuation : Continuation
         ``MARCH`` (default): the stable equilibria are continued point by point along the
         displacement axis, forward through each row and then backward from the equilibria
@@ -72,7 +74,8 @@ class StabilitySearch:
         without seeds would see only their neighbours' states). A point where nothing
         converged gets the fixed seeds after the march.
     march_lanes : int
-        Lanes of the pool for the continuation solves, ≥ 1. Default 16, as ``solve_batch``:
+        Lanes of the JAX pool for the continuation solves, ≥ 1 (as ``solve_batch``, only
+        without a compiled System). Default 16, as ``solve_batch``:
         with every subset seeded a march step continues 15–35 equilibria per row, enough
         to fill 16 lanes, and one lane count compiles one pool kernel per layout (a 4-row
         chunk of the 40 × 40 map: 21 s with 16 lanes, 24 s with 8).

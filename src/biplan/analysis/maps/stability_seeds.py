@@ -17,6 +17,7 @@ from typing import Any
 import numpy as np
 
 from biplan.model.assembly import Model
+from biplan.model.system import System, assemble
 from biplan.model.tube import Tube
 from biplan.solvers.observe import ACTIVE_GAP
 
@@ -44,6 +45,15 @@ class Seeding(enum.StrEnum):
 MAX_SUBSET_FOLDS = 12
 
 
+def _line_force(coefficients: Any, w: np.ndarray) -> np.ndarray:
+    """Line force F(w) [N/mm] of a fold law (k1, k2, k3, w1, w2) at openings w [mm]: the
+    NumPy form of :meth:`biplan.laws.FoldLaw.force` (same arithmetic, no JAX)."""
+    k1, k2, k3, w1, w2 = (float(c) for c in coefficients)
+    f1 = k1 * w1
+    f2 = f1 + k2 * (w2 - w1)
+    return np.where(w < w1, k1 * w, np.where(w < w2, f1 + k2 * (w - w1), f2 + k3 * (w - w2)))
+
+
 def pushing(tube: Tube, u: np.ndarray) -> np.ndarray:
     """(len(u), N_c, N_c) booleans: whether circular fold i pushes (law force < 0) when k + 1
     folds share the displacement u [mm] equally (opening u / (k + 1)); one law evaluation
@@ -54,7 +64,7 @@ def pushing(tube: Tube, u: np.ndarray) -> np.ndarray:
     forces: dict[Any, np.ndarray] = {}
     for law in tube.circular_laws:
         if law not in forces:
-            forces[law] = np.asarray(law.force(ws)) < 0.0
+            forces[law] = _line_force(law.coefficients, ws) < 0.0
     return np.stack([forces[law] for law in tube.circular_laws], axis=1)
 
 
@@ -64,6 +74,7 @@ def seeds(
     kind: Seeding = Seeding.SUBSETS,
     pressed_only: bool = False,
     pushes: np.ndarray | None = None,
+    system: System | None = None,
 ) -> np.ndarray:
     """Packed starting vectors (n_seeds, n_z) for prescribed displacement ``u`` [mm].
 
@@ -84,7 +95,8 @@ def seeds(
     leaves such states; from the pressed start it keeps the gaps shut and finds the
     multipliers (docs/maps.md, "contact-locked states"). ``pressed_only``: only these
     (possibly none: shape (0, n_z)). ``pushes``: :func:`pushing` of this ``u`` (computed
-    when not given).
+    when not given). ``system``: the model's compiled System (:meth:`Model.system`), which
+    then evaluates the contact gaps (else the model's JAX kernel).
     """
     nq = model.n_coordinates
     n_circ = model.tube.n_circular
@@ -118,7 +130,11 @@ def seeds(
         plain.append(z)
         if push:
             zp = z.copy()
-            zp[lam_c] = np.where(model.contact_gaps(z[:nq]) < ACTIVE_GAP, PRESS, 0.0)
+            if system is None:
+                gaps = model.contact_gaps(z[:nq])
+            else:
+                gaps = assemble.observe(system.data, z)[4]
+            zp[lam_c] = np.where(gaps < ACTIVE_GAP, PRESS, 0.0)
             pressed.append(zp)
     out = pressed if pressed_only else plain + pressed
     return np.asarray(out).reshape(-1, n_z)
