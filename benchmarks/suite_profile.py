@@ -8,7 +8,7 @@ trace seconds and how many times each happened.
 Run from the repository root (a fresh cache is made in a temporary folder)::
 
     .venv/bin/python benchmarks/suite_profile.py                 # the whole suite
-    .venv/bin/python benchmarks/suite_profile.py tests/test_pool.py --top 10
+    .venv/bin/python benchmarks/suite_profile.py tests/test_batched_linalg.py --top 10
 
 Extra arguments go to pytest. ``--keep-cache`` uses the suite's own cache folder
 (``.jax-cache-tests``) instead of an empty one (a warm run).

@@ -1,8 +1,7 @@
 """Parameter sweeps, the force-controlled design map and resumable chunked results.
 
-All batched solves use chunks of :data:`BATCH` points (one compiled kernel shape for the
-semi-bistable layout of ``model6``); the grids stay at b < 0.578 where the layout is that of
-``model6`` (past it the connectors swap their field order and the layout changes).
+All sweeps use chunks of :data:`BATCH` points; the grids stay at b < 0.578 where the layout is
+that of ``model6`` (past it the connectors swap their field order and the layout changes).
 """
 
 from __future__ import annotations
@@ -20,7 +19,6 @@ from biplan import ConfigError, LinearLaw, TrilinearLaw
 from biplan.analysis.maps.design_map import ForceRamp, ResponseEvaluator, response_point
 from biplan.analysis.maps.stability_map import (
     StabilityEvaluator,
-    points_per_kernel,
     stability_chunk_size,
     transition_band,
 )
@@ -55,7 +53,7 @@ def grid() -> Grid:
 
 @pytest.fixture(scope="module")
 def design_map(design, grid):
-    """The uninterrupted 3 × 3 design map (3 chunks, the last one padded)."""
+    """The uninterrupted 3 × 3 design map (3 chunks, the last one of a single point)."""
     return sweep(design, grid, ResponseEvaluator(), chunk_size=BATCH)
 
 
@@ -235,8 +233,12 @@ def test_resumed_sweep_equals_uninterrupted_bit_for_bit(design, grid, design_map
     # a new run without --resume is refused; with it only chunk 1 is computed
     with pytest.raises(ConfigError, match="resume"):
         ChunkStore(tmp_path, desc, 3, resume=False)
-    with pytest.raises(ConfigError, match="same sweep"):
+    with pytest.raises(ConfigError, match=r"same sweep.*differs in chunk_size$"):
         ChunkStore(tmp_path, {**desc, "chunk_size": 5}, 2, resume=True)
+    # a map of another solver (its settings as the evaluator describes them) is named
+    other = {**desc, "grid": {**desc["grid"], "C": [9.0]}, "settings": {"solver": "new"}}
+    with pytest.raises(ConfigError, match=r"differs in grid\.C, settings$"):
+        ChunkStore(tmp_path, other, 3, resume=True)
     calls: list[int] = []
     resumed = sweep(
         design, grid, ev, chunk_size=BATCH, sink=ChunkStore(tmp_path, desc, 3, resume=True),
@@ -308,6 +310,28 @@ def test_thread_runner_stops_when_the_consumer_stops() -> None:
     for make in (dask_runner, process_runner):  # refused before any process starts
         with pytest.raises(ConfigError, match="workers"):
             make(n_workers=0)
+
+
+def test_pin_process_restricts_every_thread_and_can_be_undone() -> None:
+    """A local Dask worker is pinned to its own core (every thread of the process)."""
+    import contextlib
+    import os
+
+    from biplan.analysis.scaleout import _available_cores, _pin_process
+
+    if not hasattr(os, "sched_setaffinity"):
+        pytest.skip("no CPU affinity on this platform")
+    before = os.sched_getaffinity(0)
+    core = _available_cores()[-1]
+    try:
+        assert _pin_process(core) == core
+        for tid in os.listdir("/proc/self/task"):
+            assert os.sched_getaffinity(int(tid)) == {core}
+    finally:
+        for tid in os.listdir("/proc/self/task"):
+            with contextlib.suppress(OSError):
+                os.sched_setaffinity(int(tid), before)
+    assert os.sched_getaffinity(0) == before
 
 
 # --- failures ---------------------------------------------------------------------------------
@@ -470,7 +494,7 @@ def test_transition_band_marks_alternating_stretches() -> None:
     assert transition_band(with_nan)[0].tolist() == [False, False, True, False, False]
 
 
-def test_stability_map_mono_at_small_displacement_multi_at_large(design, monkeypatch) -> None:
+def test_stability_map_mono_at_small_displacement_multi_at_large(design) -> None:
     """Paper Fig. 3 A.3: monostable at small U/l0 and high C, multistable at larger U/l0 and
     low C (b = 0.573, the design's own b, to share the compiled layout).
 
@@ -503,11 +527,8 @@ def test_stability_map_mono_at_small_displacement_multi_at_large(design, monkeyp
     assert ((lam > 0) == (ds["stable"].values[0, 1, :kept] == 1)).all()
     # the prescribed displacement holds at every equilibrium (u_z/l0 = U/l0 at the load point)
     assert np.nanmax(np.abs(ds["u_z"].values[:, 1] - 0.1)) < 0.02
-    # one row per chunk: the same counts (the compiled search solves each point's tasks,
-    # whatever the chunk; the JAX pool is not used for a layout the System covers)
-    from biplan.analysis.maps import stability_solve
-
-    monkeypatch.setattr(stability_solve, "newton_pool", None)
+    # one row per chunk: the same counts (the search solves each point's tasks together,
+    # whatever the chunk)
     whole = sweep(design, grid, StabilityEvaluator(), chunk_size=3)
     np.testing.assert_array_equal(whole["n_stable"].values, ds["n_stable"].values)
 
@@ -540,7 +561,7 @@ def test_march_finds_the_equilibria_of_seeding_every_point(design) -> None:
     """The default search (fixed seeds 0.04 apart in U/l0, branches marched along the row)
     counts the same stable equilibria as fixed seeds at every point plus one continuation
     step from both neighbours, with the same energies."""
-    # seeds at every other point (spacing 0.04); the chunk size keeps the 32-point kernels
+    # seeds at every other point (spacing 0.04); one chunk: the march runs along the whole row
     grid = Grid.of(C=[0.5], displacement=np.linspace(0.02, 0.2, 10))
     march = sweep(design, grid, StabilityEvaluator(), chunk_size=20)
     every = StabilityEvaluator(StabilitySearch(continuation="neighbours", seed_spacing=0.0))
@@ -574,5 +595,3 @@ def test_stability_search_settings_are_checked() -> None:
     assert ev._seeded(list(np.linspace(0.01, 0.3, 9)), row[:9]) == row[:9]  # coarse: all
     assert stability_chunk_size(40) == 160 and stability_chunk_size(200) == 200
     assert stability_chunk_size(7) % 7 == 0 and stability_chunk_size(7) >= 128
-    sizes = [points_per_kernel(n) for n in (1, 2, 8, 9, 20, 128, 132)]
-    assert sizes == [8, 8, 8, 16, 32, 128, 256]

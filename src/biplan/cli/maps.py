@@ -73,7 +73,7 @@ _Threads = Annotated[
     typer.Option(help="In-process threads running chunks (0: one per available core)."),
 ]
 _Resume = Annotated[bool, typer.Option("--resume", help="Continue a killed run in --out.")]
-_Chunk = Annotated[int, typer.Option(help="Points per chunk (and per compiled batch).")]
+_Chunk = Annotated[int, typer.Option(help="Points per chunk (the unit of work and of --resume).")]
 _Quiet = Annotated[bool, typer.Option("--quiet", "-q", help="No progress bar or summary.")]
 #: Default of ``--max-points``: the largest grid run without being asked for explicitly
 #: (a design map of this size takes about 30 min on two cores, a stability map about 6 h).

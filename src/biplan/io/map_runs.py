@@ -134,7 +134,7 @@ def open_map(
     out : Path
         Output directory (created).
     chunk_size : int
-        Points per chunk (and per compiled batch).
+        Points per chunk (the unit of work and of resumption).
     resume : bool
         Continue a killed run in ``out``: its finished chunks are reused.
 

@@ -10,8 +10,9 @@ Layout of an output directory::
 A chunk file is written to a temporary name and renamed, then the manifest is rewritten the
 same way, so a run killed at any moment leaves only complete chunk files. ``--resume`` checks
 that the manifest describes the same sweep (same config, grid, quantity settings and chunk
-size) and loads the finished chunks instead of recomputing them. netCDF stores float64 and
-int64 exactly, so a resumed map equals an uninterrupted one bit for bit.
+size; a refusal names the entries that differ, e.g. ``settings.solver`` for a map of an
+earlier solver) and loads the finished chunks instead of recomputing them. netCDF stores
+float64 and int64 exactly, so a resumed map equals an uninterrupted one bit for bit.
 
 A finished chunk whose file is missing or cannot be read (truncated, overwritten) is recorded
 in :attr:`ChunkStore.damaged` with the reason and computed again. A directory holding chunk
@@ -43,6 +44,22 @@ def _atomic_write(path: Path, write: Any) -> None:
     tmp = path.with_name(path.name + ".part")
     write(tmp)
     os.replace(tmp, path)
+
+
+def _differences(old: Any, new: Any, prefix: str = "") -> list[str]:
+    """The entries in which two sweep descriptions differ (``settings.solver``, ``grid.C``,
+    ``chunk_size``, …; nested one level), or the whole description when the old one is
+    missing."""
+    if not isinstance(old, dict) or not isinstance(new, dict):
+        return [prefix or "the description"] if old != new else []
+    out: list[str] = []
+    for key in sorted(set(old) | set(new)):
+        a, b = old.get(key), new.get(key)
+        if a != b:
+            name = f"{prefix}.{key}" if prefix else str(key)
+            nested = not prefix and isinstance(a, dict) and isinstance(b, dict)
+            out += _differences(a, b, name) if nested else [name]
+    return out
 
 
 class ChunkStore:
@@ -96,10 +113,12 @@ class ChunkStore:
                     "out", str(self.directory), "an empty directory, or --resume to continue"
                 )
             if resume and old.get("key") != self.key:
+                differ = _differences(old.get("sweep"), self.description)
+                why = f"; this one differs in {', '.join(differ)}" if differ else ""
                 raise ConfigError(
                     "--resume",
                     str(self.directory),
-                    "a directory of the same sweep (config, grid, settings and chunk size)",
+                    f"a directory of the same sweep (config, grid, settings and chunk size){why}",
                 )
             if resume:
                 self._reuse(old.get("finished", []))

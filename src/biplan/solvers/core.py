@@ -10,9 +10,8 @@ static options; the tolerances and limits are traced
 * :func:`iterate` — the whole solve as one ``lax.while_loop`` (equilibrium, relaxation
   polish, design-map load steps, the path corrector and the time step with
   ``levenberg_marquardt=False``, deflated solves);
-* :func:`biplan.solvers.pool.newton_pool` — tasks on refilled ``vmap`` lanes;
 * :mod:`biplan.solvers.strategies` — the damped Newton of the path corrector and the time
-  step, and the chord (modified Newton) start of the design map's load steps.
+  step, and a chord (modified Newton) start.
 
 The systems differ only in their residual: the KKT system of the model
 (:func:`biplan.solvers.newton.newton_machine`), the bordered arclength system
@@ -82,7 +81,7 @@ def machine(
     ``residual(z)`` and ``jacobian(z)`` are traced once each. ``init(z0)`` is the state before
     the first step, ``body(state)`` one step, ``running(state)`` whether another step is due
     and ``finish(state)`` sets the final status. :func:`iterate` drives them with
-    ``lax.while_loop``; :func:`biplan.solvers.pool.newton_pool` drives them on refilled lanes.
+    ``lax.while_loop``.
 
     Newton steps with Armijo backtracking on ½‖R‖² that fall back, once α is exhausted, to
     Levenberg–Marquardt steps with growing damping (solved with the Jacobian of the current
@@ -98,8 +97,8 @@ def machine(
       trial points) followed by one Jacobian at the accepted point. Under ``vmap`` a lane
       that has accepted waits (cheap: residuals and solves) while the others backtrack, so a
       batch evaluates one Jacobian per accepted step instead of one per trial point: faster
-      when many trials are rejected (multi-start searches from far-off seeds, the
-      stability map's pool, the path corrector and the time step).
+      when many trials are rejected (multi-start searches from far-off seeds, the path
+      corrector and the time step).
 
     Both visit the same trial points (results equal to rounding; a solve that grinds through
     hundreds of LM trials can end differently). ``free_steps`` (static) is the watchdog of

@@ -1,8 +1,8 @@
 """Newton strategies built on the core (:mod:`biplan.solvers.core`).
 
 * :func:`damped` — the plain damped Newton of the path corrector and the time step;
-* :func:`chord` — chord (modified Newton) iterates with a Jacobian factored once, the start of
-  the design map's load steps;
+* :func:`chord` — chord (modified Newton) iterates with a Jacobian factored once (the design
+  map's load steps start with its compiled form, :func:`biplan.solvers.batch.chord`);
 * :func:`minimum_norm` — the minimum-norm least-squares step of an underdetermined system
   (a Gauss–Newton return to a constraint manifold);
 * :func:`residual_norm` — ‖R‖∞ of a finished iteration.

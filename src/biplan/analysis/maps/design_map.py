@@ -7,8 +7,7 @@ was lost, and the solve status.
 
 Reading (documented in docs/maps.md): the ramp is followed **quasi-statically** — Newton load
 stepping at the ramp's force levels F_k = Ḟ t_k, each step warm-started from the previous
-equilibrium, one compiled call per design on its System (:func:`biplan.solvers.batch.ramp`;
-other chain readings: one JAX kernel call per batch of designs, ``jax.vmap``;
+equilibrium, one compiled call per design on its System (:func:`biplan.solvers.batch.ramp`,
 :mod:`biplan.analysis.maps.design_kernels`). The paper's ramp is dynamic, but the tube's
 inertia is tiny (μ = 3.6e-10 t/mm², lowest periods ~ms against a 2 s ramp), so between snaps
 the dynamic response is the quasi-static one; a generalized-α run would need ~200 adaptive
@@ -32,18 +31,13 @@ from typing import Any
 import numpy as np
 
 from biplan._errors import ConfigError, check_integer, check_range
-from biplan.analysis.maps.design_kernels import (
-    point_solvers,
-    ramp_compiled,
-    ramp_jax,
-    stack_params,
-)
+from biplan.analysis.maps.design_kernels import point_solvers, ramp_compiled
 from biplan.analysis.response.ramp_dynamics import continue_ramp
 from biplan.model.assembly import Load, Model
 from biplan.model.tube import Tube
 from biplan.solvers.newton import Newton, Status, solve_equilibrium
 
-__all__ = ["ForceRamp", "ResponseEvaluator", "ramp_batches", "response_point", "stack_params"]
+__all__ = ["ForceRamp", "ResponseEvaluator", "ramp_batches", "response_point"]
 
 #: Readings of a failed load step (a passed limit point): see ``ForceRamp.after_snap``.
 AFTER_SNAP = ("dynamic", "stop")
@@ -69,8 +63,7 @@ class ForceRamp:
     max_steps : int
         Newton iterations per load step.
     max_backtracks : int
-        Line-search halvings per Newton step (the batched loop runs in lock-step until every
-        design of the batch has finished, so a failing design must fail fast).
+        Line-search halvings per Newton step.
     free_steps : int
         Newton watchdog steps per load step (:class:`~biplan.solvers.newton.Newton`): full
         steps without the line-search test, falling back to the best iterate. The first load
@@ -256,7 +249,7 @@ class ResponseEvaluator:
     def describe(self) -> dict[str, Any]:
         r = self.ramp
         return {
-            "solver": "quasi-static Newton load stepping on the force ramp (vmap)",
+            "solver": "quasi-static Newton load stepping on the force ramp (compiled System)",
             "rate_N_per_s": r.rate,
             "duration_s": r.duration,
             "n_steps": r.n_steps,
@@ -277,7 +270,8 @@ class ResponseEvaluator:
     def evaluate(
         self, tubes: Sequence[Tube], loads: Sequence[Mapping[str, float]], batch: int
     ) -> dict[str, np.ndarray]:
-        """Batched ramp of ``tubes``: one compiled call per layout, padded to ``batch``."""
+        """The ramp of ``tubes``: one compiled call per design, ``batch`` designs at a time
+        (:func:`ramp_batches`)."""
         n = len(tubes)
         out: dict[str, np.ndarray] | None = None
         for part, models, (ok, bad, uz, ur, zp, min_eig), z_last in ramp_batches(
@@ -299,10 +293,10 @@ class ResponseEvaluator:
 def ramp_batches(
     tubes: Sequence[Tube], ramp: ForceRamp, batch: int
 ) -> Iterator[tuple[list[int], list[Model], tuple[np.ndarray, ...], np.ndarray]]:
-    """The quasi-static ramp of ``tubes``, ``batch`` designs at a time: on the compiled System
-    of each design (:func:`~biplan.analysis.maps.design_kernels.ramp_compiled`), else in
-    batched JAX kernel calls (one compilation per layout, every call padded to ``batch``
-    designs; :func:`~biplan.analysis.maps.design_kernels.ramp_jax`).
+    """The quasi-static ramp of ``tubes``, ``batch`` designs at a time (the designs of one
+    layout together): one compiled call per design on its System
+    (:func:`~biplan.analysis.maps.design_kernels.ramp_compiled`); ``batch`` only sets how
+    many designs each yield holds, not the results.
 
     Yields
     ------
@@ -321,15 +315,11 @@ def ramp_batches(
     for i, t in enumerate(tubes):
         groups.setdefault(t.layout, []).append(i)
     newton = ramp.newton()
-    for layout, which in groups.items():
+    for which in groups.values():
         models = [Model(tubes[i]) for i in which]
-        compiled = all(m.system() is not None for m in models)
         for lo in range(0, len(which), batch):
             part, chunk = which[lo : lo + batch], models[lo : lo + batch]
-            if compiled:
-                records, z_last = ramp_compiled(chunk, ramp.forces, newton)
-            else:
-                records, z_last = ramp_jax(layout, chunk, ramp.forces, newton, batch)
+            records, z_last = ramp_compiled(chunk, ramp.forces, newton)
             yield part, chunk, records, z_last
 
 
@@ -337,8 +327,8 @@ def response_point(tube: Tube, ramp: ForceRamp | None = None) -> dict[str, float
     """Scalar reference of :class:`ResponseEvaluator` for one design: the same chord
     iterations and one Newton solve per load step (``solve_equilibrium``), observed with a
     fresh evaluation of each Hessian (an independent check of the Jacobian-block stability
-    test of the map's ramp); on the compiled System where the design has one, else on the
-    JAX kernels (:func:`~biplan.analysis.maps.design_kernels.point_solvers`).
+    test of the map's ramp), on the design's compiled System
+    (:func:`~biplan.analysis.maps.design_kernels.point_solvers`).
 
     Returns
     -------

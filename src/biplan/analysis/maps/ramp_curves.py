@@ -1,8 +1,8 @@
 """The ramp response of every design of a design map, step by step, and its terminal shape.
 
 A design map (:mod:`biplan.analysis.maps.design_map`) stores per design only the terminal
-endpoint values of the force ramp. :func:`ramp_curves` follows the same ramp again, in the
-same batched kernel calls (:func:`~biplan.analysis.maps.design_map.ramp_batches`), and keeps what
+endpoint values of the force ramp. :func:`ramp_curves` follows the same ramp again, by the
+same compiled calls (:func:`~biplan.analysis.maps.design_map.ramp_batches`), and keeps what
 the map drops: the force and load-point displacement of every converged load step, and the
 terminal configuration. A design whose ramp fails at a snap is finished as the map finishes it
 (``after_snap = "dynamic"``: :func:`~biplan.analysis.response.ramp_dynamics.continue_ramp` from its
@@ -71,11 +71,12 @@ def ramp_curves(tubes: Sequence[Tube], ramp: ForceRamp, batch: int = 16) -> list
     Parameters
     ----------
     tubes : sequence of Tube
-        The designs (tubes of one layout share one compiled kernel).
+        The designs.
     ramp : ForceRamp
         The map's ramp (its ``settings`` attribute).
     batch : int
-        Designs per kernel call (the map's ``chunk_size`` reuses its compiled kernel).
+        Designs per batch of :func:`~biplan.analysis.maps.design_map.ramp_batches` (the
+        curves do not depend on it).
 
     Returns
     -------

@@ -26,7 +26,7 @@ default C at b = 0.58) the distinct equilibria are searched for and classified:
    ``continuation = "neighbours"``, the previous default), at 2.2× its speed.
 3. **Distinct equilibria.** Converged solutions closer than ``distinct_tol`` in every
    coordinate are one equilibrium; each is classified with λ_min of the reduced Hessian
-   (:func:`biplan.solvers.observe.min_reduced_eigenvalue`, the batched form of
+   (:func:`biplan.solvers.observation.observe`, the compiled batched form of
    :func:`biplan.analysis.stability.classify`): stable if λ_min > ``STABILITY_TOL``.
 4. **Count.** ``n_stable`` = 1 monostable, 2 bistable, ≥ 3 multistable (``regime`` 1, 2, 3; 0
    when none was found). The **transition band** is the stretch of each row along the
@@ -34,18 +34,15 @@ default C at b = 0.58) the distinct equilibria are searched for and classified:
    more than once (neighbouring points alternate), up to the point from which the final
    regime holds.
 
-Where the model has a compiled System (:meth:`~biplan.model.assembly.Model.system`, the
-default chain readings) every solve runs on it: the tasks of each point (seeds or
-continuation starts) are solved in parallel by the compiled Newton
+Every solve runs on the compiled System of its point
+(:meth:`~biplan.model.assembly.Model.system`): the tasks of each point (seeds or continuation
+starts) are solved in parallel by the compiled Newton
 (:func:`biplan.solvers.batch.solve_tasks`, one compilation per install, whatever the layout or
-chunk) and observed by :func:`biplan.solvers.observation.observe`. Other readings use the JAX
-kernels: the tasks of a chunk run as one task queue on a lane-refilling Newton pool
-(:func:`biplan.solvers.pool.newton_pool`, ``solve_batch`` lanes for the fixed seeds and
-``march_lanes`` for a march step, one compiled kernel per layout, lane count and size bucket
-of the chunk, :func:`points_per_kernel`), which runs the same iteration per task. Only one
-solution per distinct equilibrium and point is observed (Hessian, λ_min), the copies share
-its values. Continuation stays inside a chunk, so rows should not straddle chunks (the CLI
-sizes the chunks to whole rows, at least 128 points: :func:`stability_chunk_size`).
+chunk) and observed by :func:`biplan.solvers.observation.observe`
+(:mod:`biplan.analysis.maps.stability_solve`). Only one solution per distinct equilibrium and
+point is observed (Hessian, λ_min), the copies share its values. Continuation stays inside a
+chunk, so rows should not straddle chunks (the CLI sizes the chunks to whole rows, at least
+128 points: :func:`stability_chunk_size`).
 """
 
 from __future__ import annotations
@@ -62,31 +59,20 @@ from biplan.analysis.maps.stability_search import (
     StabilitySearch,
     same_equilibrium,
 )
-from biplan.analysis.maps.stability_seeds import max_seeds, pushing, seeds
-from biplan.analysis.maps.stability_solve import CompiledTasks, solve_and_observe, task_solver
-from biplan.geometry.layout import TubeLayout
+from biplan.analysis.maps.stability_seeds import pushing, seeds
+from biplan.analysis.maps.stability_solve import CompiledTasks, solve_and_observe
 from biplan.model.assembly import Model
 from biplan.model.tube import Tube
 from biplan.solvers.observe import STABILITY_TOL
 
 __all__ = [
     "StabilityEvaluator",
-    "points_per_kernel",
     "stability_chunk_size",
     "transition_band",
 ]
 
 #: Regime codes of ``regime``.
 REGIMES = {"none": 0, "monostable": 1, "bistable": 2, "multistable": 3}
-
-
-def points_per_kernel(n_points: int) -> int:
-    """Points (rows of the stacked parameters) of the JAX search kernels (the fallback of
-    readings without a compiled System) for a chunk of ``n_points``: rounded up to a power of
-    two, at least 8. The pool's shapes are set by the padded points and tasks (padding tasks
-    are never solved), so chunks and grids of other sizes in the same bucket share one
-    compiled pool instead of compiling their own (25–45 s each on two cores)."""
-    return max(8, 1 << (max(int(n_points), 1) - 1).bit_length())
 
 
 @dataclass(frozen=True)
@@ -146,7 +132,8 @@ class StabilityEvaluator:
     def evaluate(
         self, tubes: Sequence[Tube], loads: Sequence[Mapping[str, float]], batch: int
     ) -> dict[str, np.ndarray]:
-        """Equilibria of every point (tubes of one or several layouts)."""
+        """Equilibria of every point (tubes of one or several layouts; ``batch`` is not
+        used: the tasks of each point are solved together, whatever the chunk)."""
         n = len(tubes)
         m_eq = self.search.max_equilibria
         nq_all = tubes[0].layout.n_coordinates
@@ -163,24 +150,19 @@ class StabilityEvaluator:
         for i, t in enumerate(tubes):
             groups.setdefault(t.layout, []).append(i)
         for layout, which in groups.items():
-            found = self._search_group(layout, [tubes[i] for i in which],
-                                       [loads[i] for i in which], batch)  # fmt: skip
+            found = self._search_group([tubes[i] for i in which], [loads[i] for i in which])
             for j, i in enumerate(which):
                 self._store(out, i, found[j], tubes[i].initial_length, layout.n_coordinates)
         return out
 
     def _search_group(
-        self, layout: TubeLayout, tubes: list[Tube], loads: list[Mapping[str, float]], batch: int
+        self, tubes: list[Tube], loads: list[Mapping[str, float]]
     ) -> list[dict[str, Any]]:
         """Seeds, then continuation, for the points of one layout (see module docstring)."""
         s = self.search
         models = [Model(t) for t in tubes]
-        size = points_per_kernel(max(batch, len(models)))
         kind = s.seed_kind(tubes[0].n_circular)
-        n_seeds = max_seeds(tubes[0].n_circular, kind)
-        capacity = size * max(n_seeds, 2 * s.max_equilibria)
-        solver = task_solver(layout, models, size, capacity)
-        systems = solver.systems if isinstance(solver, CompiledTasks) else None
+        tasks = CompiledTasks.of(models)
         u = [
             float(ld["displacement"]) * t.initial_length for ld, t in zip(loads, tubes, strict=True)
         ]
@@ -189,11 +171,8 @@ class StabilityEvaluator:
 
         def solve(rows: list[int], z0: list[np.ndarray], cont: bool) -> list[np.ndarray]:
             r = np.asarray(rows, dtype=int)
-            lanes = (
-                s.march_lanes if cont and s.continuation is Continuation.MARCH else s.solve_batch
-            )
-            sols = solve_and_observe(solver, r, np.asarray(z0), np.asarray(u)[r], lanes,
-                                     s.newton(cont), nq, s.distinct_tol)  # fmt: skip
+            sols = solve_and_observe(tasks, r, np.asarray(z0), np.asarray(u)[r], s.newton(cont),
+                                     nq, s.distinct_tol)  # fmt: skip
             acc.add(r, sols)
             return sols
 
@@ -215,8 +194,7 @@ class StabilityEvaluator:
             rows, z0 = [], []
             for j in range(len(models)) if pressed_elsewhere else points:
                 push = None if pushes is None else pushes[j]
-                sd = seeds(models[j], u[j], kind, pressed_only=j not in points, pushes=push,
-                           system=None if systems is None else systems[j])  # fmt: skip
+                sd = seeds(models[j], u[j], kind, pressed_only=j not in points, pushes=push)
                 rows += [j] * len(sd)
                 z0 += list(sd)
             if rows:

@@ -55,11 +55,6 @@ class StabilitySearch:
         Line-search halvings per Newton step. A seed costs at most
         max_steps · (max_backtracks + 1) residual evaluations; most converge in 6–8, the rest
         are seeds far from any equilibrium, which should fail fast.
-    solve_batch : int
-        Lanes of the JAX solve pool (:func:`biplan.solvers.pool.newton_pool`: solves in
-        flight, a finished lane takes the next seed) for the fixed seeds, ≥ 1; used only for
-        readings without a compiled System (the compiled search solves every task of a point
-        in parallel).
     continuation : Continuation
         ``MARCH`` (default): the stable equilibria are continued point by point along the
         displacement axis, forward through each row and then backward from the equilibria
@@ -73,12 +68,6 @@ class StabilitySearch:
         every fourth point of a grid with ΔU/l₀ = 0.01. With ``NEIGHBOURS`` use 0 (points
         without seeds would see only their neighbours' states). A point where nothing
         converged gets the fixed seeds after the march.
-    march_lanes : int
-        Lanes of the JAX pool for the continuation solves, ≥ 1 (as ``solve_batch``, only
-        without a compiled System). Default 16, as ``solve_batch``:
-        with every subset seeded a march step continues 15–35 equilibria per row, enough
-        to fill 16 lanes, and one lane count compiles one pool kernel per layout (a 4-row
-        chunk of the 40 × 40 map: 21 s with 16 lanes, 24 s with 8).
     continuation_steps : int
         Newton iterations per continuation solve (measured on an 8 × 40 check grid: 6 lose
         equilibria at 30 of the 320 points, 10 at 13, 15 at none).
@@ -98,17 +87,15 @@ class StabilitySearch:
     atol: float = 1e-9
     max_steps: int = 15
     max_backtracks: int = 4
-    solve_batch: int = 16
     continuation: Continuation = Continuation.MARCH
     seed_spacing: float = 0.04
-    march_lanes: int = 16
     continuation_steps: int = 15
     seeding: Seeding = Seeding.SUBSETS
     max_subset_folds: int = 8
 
     def __post_init__(self) -> None:
-        names = ("max_equilibria", "solve_batch", "max_steps", "max_backtracks", "march_lanes",
-                 "continuation_steps", "max_subset_folds")  # fmt: skip
+        names = ("max_equilibria", "max_steps", "max_backtracks", "continuation_steps",
+                 "max_subset_folds")  # fmt: skip
         for name in names:
             object.__setattr__(
                 self, name, check_integer(f"search.{name}", getattr(self, name), low=1)

@@ -5,7 +5,7 @@
 one per subset of the circular folds (or the older fold patterns), each with the displacement
 shared equally by its open folds, and a *pressed* copy (contact multipliers :data:`PRESS` on
 the closed contacts) where the open folds push. :func:`pushing` evaluates the laws for that
-test; :func:`max_seeds` bounds the count.
+test.
 """
 
 from __future__ import annotations
@@ -17,14 +17,13 @@ from typing import Any
 import numpy as np
 
 from biplan.model.assembly import Model
-from biplan.model.system import System, assemble
+from biplan.model.system import assemble
 from biplan.model.tube import Tube
 from biplan.solvers.observe import ACTIVE_GAP
 
 __all__ = [
     "PRESS",
     "Seeding",
-    "max_seeds",
     "pushing",
     "seeds",
 ]
@@ -74,7 +73,6 @@ def seeds(
     kind: Seeding = Seeding.SUBSETS,
     pressed_only: bool = False,
     pushes: np.ndarray | None = None,
-    system: System | None = None,
 ) -> np.ndarray:
     """Packed starting vectors (n_seeds, n_z) for prescribed displacement ``u`` [mm].
 
@@ -95,8 +93,8 @@ def seeds(
     leaves such states; from the pressed start it keeps the gaps shut and finds the
     multipliers (docs/maps.md, "contact-locked states"). ``pressed_only``: only these
     (possibly none: shape (0, n_z)). ``pushes``: :func:`pushing` of this ``u`` (computed
-    when not given). ``system``: the model's compiled System (:meth:`Model.system`), which
-    then evaluates the contact gaps (else the model's JAX kernel).
+    when not given). The contact gaps come from the model's compiled System
+    (:meth:`Model.system`).
     """
     nq = model.n_coordinates
     n_circ = model.tube.n_circular
@@ -130,17 +128,8 @@ def seeds(
         plain.append(z)
         if push:
             zp = z.copy()
-            if system is None:
-                gaps = model.contact_gaps(z[:nq])
-            else:
-                gaps = assemble.observe(system.data, z)[4]
+            gaps = assemble.observe(model.system().data, z)[4]
             zp[lam_c] = np.where(gaps < ACTIVE_GAP, PRESS, 0.0)
             pressed.append(zp)
     out = pressed if pressed_only else plain + pressed
     return np.asarray(out).reshape(-1, n_z)
-
-
-def max_seeds(n_circular: int, kind: Seeding) -> int:
-    """Most starts :func:`seeds` returns for ``n_circular`` folds (pressed ones included)."""
-    n = 2**n_circular if kind == Seeding.SUBSETS else 3 * n_circular - 2
-    return 2 * n

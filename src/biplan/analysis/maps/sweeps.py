@@ -8,10 +8,10 @@ returns a labelled ``xarray.Dataset`` with one dimension per grid axis (grids an
 :mod:`biplan.analysis.maps.grid`, re-exported here).
 
 The grid is cut into chunks of ``chunk_size`` points (row-major order, the last axis fastest).
-A chunk is the unit of work, of scale-out and of resumption: every chunk is evaluated by one
-batched (``jax.vmap``) kernel call per tube layout, padded to ``chunk_size`` so that every call
-has the same shape (one compilation per layout). Chunks run in this process, on a Dask cluster
-(:func:`run_chunks`) or in a process pool, and their results can be streamed to a
+A chunk is the unit of work, of scale-out and of resumption: the evaluator gets the points of a
+chunk together (the design and stability maps solve them on the compiled System of each point,
+compiled once per install whatever the layout or chunk). Chunks run in this process, on a Dask
+cluster (:func:`run_chunks`) or in a process pool, and their results can be streamed to a
 :class:`ChunkSink` (``biplan.io.sweepstore.ChunkStore``) that skips finished chunks on resume.
 
 A chunk or a point that fails is recorded with a :data:`STATUS` code and NaN values; the sweep
@@ -132,7 +132,8 @@ def _extent(evaluator: Evaluator, design: Tube, dim: str) -> int:
 def evaluate_chunk(
     design: Tube, grid: Grid, evaluator: Evaluator, indices: np.ndarray, batch: int
 ) -> dict[str, np.ndarray]:
-    """Evaluate the points ``indices`` of ``grid`` (a chunk), padded to ``batch``.
+    """Evaluate the points ``indices`` of ``grid`` (a chunk; ``batch``: the evaluator's
+    ``batch`` argument, the chunk size).
 
     Points whose design is invalid get status ``invalid``; a chunk whose batched evaluation
     raises is retried point by point, and a point that still raises gets status ``error``.
@@ -300,7 +301,7 @@ def sweep(
     quantity : Evaluator
         E.g. ``design_map.ResponseEvaluator()`` or ``stability_map.StabilityEvaluator()``.
     chunk_size : int
-        Points per chunk, and the batch size of every compiled call (pad to it).
+        Points per chunk (also passed to the evaluator as its ``batch``).
     sink : ChunkSink, optional
         Stream finished chunks to it; chunks it already holds are loaded, not recomputed.
     runner : callable, optional
@@ -327,5 +328,5 @@ def sweep(
     if len(results) < len(chunks):
         return None
     ds = assemble(design, grid, quantity, chunks, results)
-    ds.attrs["chunk_size"] = chunk_size  # the batch its kernels were compiled for
+    ds.attrs["chunk_size"] = chunk_size
     return ds
