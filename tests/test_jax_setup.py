@@ -100,8 +100,9 @@ def test_a_load_reaches_a_kernel_with_one_input_type(model1):
 
 
 def test_import_help_and_version_load_no_jax():
-    """``import biplan``, ``biplan --help`` and ``biplan --version`` set no JAX state (JAX is
-    not even imported); the set-up runs on first use of the core and extends XLA_FLAGS."""
+    """``import biplan``, ``biplan --help``, ``biplan --version``, a Model and its compiled
+    system set no JAX state (JAX is not even imported); the set-up runs on first use of the
+    JAX kernels and extends XLA_FLAGS."""
     code = (
         "import sys, biplan, biplan.cli.main\n"
         "assert 'jax' not in sys.modules, 'jax imported'\n"
@@ -113,8 +114,10 @@ def test_import_help_and_version_load_no_jax():
         "        assert e.code in (0, None), e.code\n"
         "assert 'jax' not in sys.modules, 'jax imported by the CLI'\n"
         "import os\n"
-        "biplan.Model\n"
-        "import jax.numpy as jnp\n"
+        "model = biplan.Model(biplan.designs.semi_bistable())\n"
+        "model.system()\n"
+        "assert 'jax' not in sys.modules, 'jax imported by the model or its system'\n"
+        "from biplan._compile.setup import jnp\n"
         "assert jnp.ones(1).dtype == jnp.float64\n"
         "flags = os.environ['XLA_FLAGS']\n"
         "assert flags.startswith('--xla_cpu_multi_thread_eigen=true '), flags\n"

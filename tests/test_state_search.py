@@ -162,8 +162,8 @@ def test_states_command_checks_the_search_request_first(tmp_path, monkeypatch, c
 
     monkeypatch.setattr(seeding, "evaluate", _forbidden)
     config = "examples/fully_bistable_4.toml"
-    big = tmp_path / "fb7.toml"
-    text = Path(config).read_text(encoding="utf-8").replace("n_modules = 4", "n_modules = 7")
+    big = tmp_path / "fb9.toml"
+    text = Path(config).read_text(encoding="utf-8").replace("n_modules = 4", "n_modules = 9")
     big.write_text(text, encoding="utf-8")
     out = str(tmp_path / "out")
     cases = [
@@ -171,7 +171,7 @@ def test_states_command_checks_the_search_request_first(tmp_path, monkeypatch, c
         ([config, "--search", "neighbourhood", "--resume"], "invalid --resume"),
         ([config, "--search", "neighbourhood", "--workers", "2"], "invalid --workers"),
         ([config, "--workers", "0"], "invalid --workers = 0"),
-        ([str(big)], "8,192 seeds"),
+        ([str(big)], "131,072 seeds"),
     ]
     for args, message in cases:
         with pytest.raises(SystemExit) as info:

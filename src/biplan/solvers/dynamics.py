@@ -317,7 +317,13 @@ def integrate(
         status = TrajectoryStatus.NONFINITE
     t_all = np.asarray(ts)
     load_parameter = load.value(t_all)
-    obs = observation.observe(model, z_all, _load_at(ctl, load_parameter))
+    loads = _load_at(ctl, load_parameter)
+    if run is _run_system:
+        obs = observation.observe(system, z_all, loads, model.options.weak_contacts_active)
+    else:  # the JAX trajectory is observed by the JAX kernels
+        from biplan.solvers.observe import observe_batch
+
+        obs = observe_batch(model.layout, model.params, z_all, loads)
     kinetic = np.asarray(kins)
     force, zp = np.asarray(obs.force), np.asarray(obs.displacement)
     work = np.concatenate([[0.0], np.cumsum(0.5 * (force[1:] + force[:-1]) * np.diff(zp))])

@@ -16,9 +16,16 @@ system of path following (x = [z, Λ], load (c_F Λ, c_U Λ, d))::
 
 with ∂r/∂Λ = [−c_F ∇z_p, 0, …, −d c_U] (the load enters L as (μd − F) z_p and the last row
 as d (z_p − U)).
+
+Deflation (:func:`solve` with a ``deflation`` array; Farrell, Birkisson & Funke 2015) runs the
+same iteration on M(q) R(z), M(q) = Π_i (‖q − q_i‖^−p + σ) over known states q_i, whose roots
+are the other roots of R: ∂(M R)/∂z = M ∂R/∂z + M R ∇ηᵀ (η = log M, on the q columns), and a
+solve converges when the undeflated residual is below the tolerance.
 """
 
 from __future__ import annotations
+
+import math
 
 import numpy as np
 from numba import njit
@@ -29,7 +36,18 @@ from biplan.model.system.inertia import add_inertia
 from biplan.model.system.tables import SystemData
 from biplan.solvers.core_settings import Status
 
-__all__ = ["newton", "settings_array"]
+__all__ = [
+    "ESCAPE",
+    "NO_BORDER",
+    "NO_DEFLATION",
+    "NO_STEP",
+    "deflate",
+    "deflation_data",
+    "log_deflation",
+    "newton",
+    "settings_array",
+    "solve",
+]
 
 _CONVERGED = Status.CONVERGED.value
 _MAX_STEPS = Status.MAX_STEPS.value
@@ -41,6 +59,13 @@ _NONFINITE = Status.NONFINITE.value
 NO_BORDER = np.zeros(0)
 #: No time step: the static system (else :func:`biplan.model.system.inertia.step_data`).
 NO_STEP = np.zeros(0)
+#: No deflation (else :func:`deflation_data`).
+NO_DEFLATION = np.zeros(0)
+#: Coordinates beyond this [mm or rad] make a deflated residual NaN (an iterate pushed off to
+#: infinity is rejected).
+ESCAPE = 1e3
+#: Squared distances below this [mm²] are clamped (the deflation stays finite at a root).
+_TINY = 1e-300
 
 
 def settings_array(
@@ -144,9 +169,76 @@ def newton(
     Returns (z, R, merit f, Jacobian at z, steps, status); the Jacobian is the one at z once a
     pass was accepted (finite f).
     """
+    return solve(d, load, z0, settings, border, rho, step, NO_DEFLATION)
+
+
+@njit(cache=True)
+def log_deflation(q: np.ndarray, roots: np.ndarray, power: float, shift: float) -> tuple:  # type: ignore[type-arg]
+    """(η = log M(q), ∇η (n_q,)) of the deflation operator M(q) = Π_i (‖q − q_i‖^−p + σ) over
+    the known states ``roots`` (R, n_q) [mm, rad]; ``power`` p ≥ 1, ``shift`` σ ≥ 0 (Farrell,
+    Birkisson & Funke 2015)."""
+    eta = 0.0
+    grad = np.zeros(q.shape[0])
+    for i in range(roots.shape[0]):
+        diff = q - roots[i]
+        s = np.sum(diff * diff)
+        r2 = max(s, _TINY)
+        a = r2 ** (-0.5 * power)
+        eta += math.log(a + shift)
+        # ∂ max(s, tiny)/∂s: 1 above, ½ at the clamp (JAX's balanced rule), 0 below
+        ds = 1.0 if s > _TINY else (0.5 if s == _TINY else 0.0)
+        coef = -0.5 * power * r2 ** (-0.5 * power - 1.0) * ds / (a + shift)
+        grad += (2.0 * coef) * diff
+    return eta, grad
+
+
+@njit(cache=True)
+def deflate(
+    d: SystemData, x: np.ndarray, res: np.ndarray, jac: np.ndarray, deflation: np.ndarray
+) -> float:
+    """Turns (R, ∂R/∂x) at x into the deflated (M R, M ∂R/∂x + M R ∇ηᵀ) in place (∇η on the q
+    columns; the Jacobian only when it is not empty; R NaN beyond :data:`ESCAPE`) and returns
+    M. ``deflation`` = [p, σ, roots (R, n_q) flattened] (:func:`deflation_data`)."""
+    n_q = d.sizes[0]
+    roots = deflation[2:].reshape((-1, n_q))
+    eta, grad = log_deflation(x[:n_q], roots, deflation[0], deflation[1])
+    m = math.exp(eta)
+    escaped = np.max(np.abs(x[:n_q])) > ESCAPE
+    if jac.shape[0]:
+        for i in range(res.shape[0]):
+            for j in range(jac.shape[1]):
+                jac[i, j] *= m
+            for j in range(n_q):
+                jac[i, j] += m * res[i] * grad[j]
+    for i in range(res.shape[0]):
+        res[i] = math.nan if escaped else m * res[i]
+    return m
+
+
+def deflation_data(roots: np.ndarray, power: float, shift: float) -> np.ndarray:
+    """The ``deflation`` array of :func:`solve`: [p, σ, roots (R, n_q) flattened]."""
+    return np.concatenate([[float(power), float(shift)], np.asarray(roots, float).ravel()])
+
+
+@njit(cache=True)
+def solve(
+    d: SystemData,
+    load: np.ndarray,
+    z0: np.ndarray,
+    settings: np.ndarray,
+    border: np.ndarray,
+    rho: float,
+    step: np.ndarray,
+    deflation: np.ndarray,
+) -> tuple:  # type: ignore[type-arg]
+    """:func:`newton`, on the deflated system M(q) R(z) where ``deflation`` is not empty
+    (:data:`NO_DEFLATION`; :func:`deflation_data`): converged when the *undeflated* residual
+    is below the tolerance, ‖M R‖∞ < atol · M."""
     atol, max_steps, max_bt, c_arm = settings[0], int(settings[1]), int(settings[2]), settings[3]
     free = int(settings[4])
     with_lm = settings[5] > 0.5
+    deflated = deflation.shape[0] > 0
+    no_jacobian = np.zeros((0, 0))  # (a global array would be read-only)
     alpha_min = 0.5**max_bt
     max_evals = max(max_steps, 1) * (max_bt + 1)
     n = z0.shape[0]
@@ -161,6 +253,8 @@ def newton(
     while status < 0 and evals < max_evals:
         zt = z + alpha * dz
         rt = system(d, zt, load, border, rho, False, step)[0]
+        if deflated:
+            deflate(d, zt, rt, no_jacobian, deflation)
         ft = 0.5 * (rt @ rt)
         if not np.isfinite(ft):
             ft = np.inf
@@ -170,7 +264,8 @@ def newton(
         damping_r = damping * 10.0 if lm else damping
         was_finite = np.isfinite(f)
         if accept:
-            jt = system(d, zt, load, border, rho, True, step)[1]
+            rj, jt = system(d, zt, load, border, rho, True, step)
+            m = deflate(d, zt, rj, jt, deflation) if deflated else 1.0
             dz_n = _solve(jt, -rt)
             newton_ok = _finite(dz_n)
             if newton_ok or with_lm:
@@ -183,7 +278,7 @@ def newton(
             alpha, lm, damping = 1.0, not newton_ok, max(damping * 0.3, 1e-9)
             if was_finite:
                 steps += 1
-            if np.max(np.abs(rt)) < atol:
+            if np.max(np.abs(rt)) < atol * m:  # m = 1 undeflated
                 status = _CONVERGED
             elif status == _FAILED:
                 pass

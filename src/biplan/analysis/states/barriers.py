@@ -5,12 +5,14 @@ path (MEP) between two stable equilibria at zero end load on the constraint mani
 tube (guides g(q) = 0, contact gaps w_∂(q) ≥ 0):
 
 1. the band is the straight line between the two states in q (mm, rad), each interior image
-   returned to the manifold (:mod:`biplan.analysis.states._nebkernel`);
+   returned to the manifold (:mod:`biplan.solvers.manifold`);
 2. the band is relaxed by FIRE with constraint-projected NEB forces and, once the forces are
-   small, a climbing image (Henkelman, Uberuaga & Jónsson 2000) — one compiled loop per layout
-   and number of images, ``vmap`` over the images;
+   small, a climbing image (Henkelman, Uberuaga & Jónsson 2000): the compiled loop
+   :func:`biplan.solvers.band_loop.relax_band` on the model's System at rest (Numba, compiled
+   once for every tube; the JAX kernel it replaced, :mod:`biplan.analysis.states._nebkernel`,
+   stays as its test oracle);
 3. the climbing image, with its least-squares multipliers, starts a Newton solve of the full KKT
-   system at zero load (:func:`biplan.solvers.newton.newton_loop`, contact by the smoothed
+   system at zero load (:func:`biplan.solvers.iteration.newton`, contact by the smoothed
    Fischer–Burmeister function), which converges to the nearby stationary point; its reduced
    Hessian (MODEL §12) must have exactly one negative eigenvalue (a first-order saddle).
 
@@ -25,12 +27,14 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from biplan._compile.setup import jnp
 from biplan._errors import ConfigError, ResultStatus, check_integer, check_range
 from biplan.analysis.stability import classify
-from biplan.analysis.states._nebkernel import relax_band
 from biplan.model.assembly import Load, Model
-from biplan.solvers.newton import Newton, Status, make_solution, solve_loop
+from biplan.model.params import StateData
+from biplan.model.system import System
+from biplan.model.system.assemble import observe
+from biplan.solvers import band_loop, iteration
+from biplan.solvers.newton import Newton, Status, make_solution
 
 __all__ = [
     "MepStatus",
@@ -61,7 +65,7 @@ class NudgedElasticBand:
     Parameters
     ----------
     n_images : int
-        Images including the two end states, ≥ 3 (one compilation per value).
+        Images including the two end states, ≥ 3.
     spring : float
         Spring constant k [N/mm] between neighbouring images, > 0.
     climbing : bool
@@ -206,22 +210,28 @@ def _as_state(model: Model, z: object, name: str) -> np.ndarray:
     return arr
 
 
-def _zero_load() -> Load:
-    return Load(jnp.asarray(0.0), jnp.asarray(0.0), jnp.asarray(0.0))
-
-
-def _contact_start(model: Model, q: np.ndarray, lam_c: np.ndarray) -> np.ndarray:
-    """Multipliers that satisfy the SFB rows for open contacts: λ_∂ ≈ ε²/(2w)."""
+def _contact_start(model: Model, z: np.ndarray, lam_c: np.ndarray) -> np.ndarray:
+    """Multipliers that satisfy the SFB rows for open contacts: λ_∂ ≈ ε²/(2w) [N] (w the
+    contact gaps at z [mm], ε the contact smoothing)."""
     eps = float(model.params.smoothing)
-    gaps = model.contact_gaps(q)
+    gaps = observe(model.system().data, z)[4]
     return np.where(lam_c > 0.0, lam_c, eps**2 / (2.0 * np.maximum(gaps, eps)))
 
 
-def _refine(model: Model, neb: NudgedElasticBand, z0: np.ndarray) -> tuple[np.ndarray, int, float]:
-    out, _ = solve_loop.compiled(model.layout)(
-        model.params, jnp.asarray(z0), _zero_load(), neb.refine.settings()
+def _refine(
+    system: System, neb: NudgedElasticBand, z0: np.ndarray
+) -> tuple[np.ndarray, int, float, StateData]:
+    """(z, status, ‖r‖∞, state data at z) of the Newton refinement of the KKT system at rest
+    from z0 (:func:`biplan.solvers.iteration.newton`)."""
+    m = neb.refine
+    settings = iteration.settings_array(
+        m.atol, m.max_steps, m.max_backtracks, m.armijo, m.free_steps
     )
-    return np.asarray(out.z), int(out.status), float(np.max(np.abs(np.asarray(out.r))))
+    z, r, f, jac, _, status = iteration.newton(
+        system.data, system.load, z0, settings, iteration.NO_BORDER, 0.0, iteration.NO_STEP
+    )
+    data = system.state(z, jac if np.isfinite(f) else None)
+    return z, int(status), float(np.max(np.abs(r))), data
 
 
 def minimum_energy_path(
@@ -267,31 +277,29 @@ def _attempt(
     nq = model.n_coordinates
     t = np.linspace(0.0, 1.0, neb.n_images)[:, None]
     band0 = (1.0 - t) * za[None, :nq] + t * zb[None, :nq]
-    out = relax_band.compiled(model.layout)(model.params, jnp.asarray(band0), jnp.asarray(settings))
-    q = np.asarray(out.q)
-    energies = np.asarray(out.energy)
+    system = model.system()
+    q, energies, lams, lam_cs, fmax, climbing, its, _ = band_loop.relax_band(
+        system.data, band0, settings
+    )
     arc = np.concatenate([[0.0], np.cumsum(np.linalg.norm(np.diff(q, axis=0), axis=1))])
-    climbing = int(out.climbing)
-    top = int(np.argmax(energies[1:-1])) + 1 if climbing < 0 else climbing
-    fmax = float(out.max_force)
-    its = int(out.iterations)
+    top = int(np.argmax(energies[1:-1])) + 1 if climbing < 0 else int(climbing)
     band_ok = fmax < neb.tolerance and (climbing >= 0 or not neb.climbing)
 
-    lam = np.asarray(out.guide_multipliers)[top]
-    lam_c = _contact_start(model, q[top], np.asarray(out.contact_multipliers)[top])
-    z_ci = model.pack(q[top], lam, lam_c)
+    z_ci = model.pack(q[top], lams[top])
+    z_ci = model.pack(q[top], lams[top], _contact_start(model, z_ci, lam_cs[top]))
     spacing = max(min(arc[top] - arc[top - 1], arc[top + 1] - arc[top]), 1e-9)
     # start from the least-squares multipliers, then (contact active sets of the band and of
     # the smoothed system can differ) from zero multipliers
     for z0 in (z_ci, model.pack(q[top])):
-        z_s, code, rnorm = _refine(model, neb, z0)
+        z_s, code, rnorm, data = _refine(system, neb, z0)
         moved = float(np.linalg.norm(z_s[:nq] - q[top]))
         refined = code == Status.CONVERGED.value and moved <= spacing
         if refined:
             break
     if not refined:
         z_s = z_ci
-        rnorm = float(np.max(np.abs(model.residual(z_ci, Load.of_force(0.0)))))
+        rnorm = float(np.max(np.abs(system.residual(z_ci))))
+        data = system.state(z_ci)
     sol = make_solution(
         model,
         z_s,
@@ -299,6 +307,7 @@ def _attempt(
         Status.CONVERGED if refined else Status(code),
         rnorm,
         0,
+        data,
     )
     eig = classify(model, sol).eigenvalues if refined else _eigenvalues(model, sol)
     n_neg = int(np.sum(eig < -NEGATIVE_TOL))
@@ -334,8 +343,8 @@ def _attempt(
         saddle_eigenvalues=eig,
         status=status,
         message=msg,
-        iterations=its,
-        max_force=fmax,
+        iterations=int(its),
+        max_force=float(fmax),
         saddle_residual=float(rnorm),
     )
 
@@ -355,7 +364,7 @@ def edge_barriers(
 ) -> list[MinimumEnergyPath]:
     """Minimum-energy paths of a list of (z_a, z_b) pairs (graph edges), in order.
 
-    All pairs share one compiled band kernel (same layout and number of images).
+    All pairs share the model's System (the band loop is compiled once for every tube).
     """
     neb = NudgedElasticBand() if neb is None else neb
     return [minimum_energy_path(model, za, zb, neb) for za, zb in pairs]

@@ -6,9 +6,11 @@ contact by the smoothed Fischer–Burmeister function) is multiplied by the defl
     M(q) = Π_i ( 1 / ‖q − q_i‖^p + σ )
 
 so that the known states are no longer roots of M r while every other root of r is. Newton on
-M r is the Newton core (:mod:`biplan.solvers.core`) on the deflated residual: with
-d = −J⁻¹ r the undeflated Newton step and η = log M, its step is d / (1 − ∇η · d_q)
-(Sherman–Morrison). Each run starts from a random perturbation of a known state (or from the
+M r is the package's Newton on the deflated residual: with d = −J⁻¹ r the undeflated Newton
+step and η = log M, its step is d / (1 − ∇η · d_q) (Sherman–Morrison). It runs compiled on the
+model's System at rest (:func:`biplan.solvers.deflated_loop.deflated_newton`, Numba); the JAX
+kernel it replaced (:func:`deflated_loop` on the Newton core :mod:`biplan.solvers.core`) stays
+as its test oracle. Each run starts from a random perturbation of a known state (or from the
 midpoint of two), is damped by backtracking on ½‖M r‖² (Levenberg–Marquardt where that
 fails), and stops when the *undeflated* residual is below the tolerance. A new root joins the
 deflation set at once, so no root is found twice. Every root is then classified by its reduced
@@ -31,9 +33,12 @@ from biplan._errors import ConfigError, check_integer, check_range
 from biplan.analysis.stability import classify
 from biplan.geometry.layout import TubeLayout
 from biplan.model.assembly import Load, Model, kernels
+from biplan.model.system import System
+from biplan.solvers import deflated_loop as compiled_loop
 from biplan.solvers import observation
 from biplan.solvers.core import iterate
 from biplan.solvers.core_settings import Settings, Status
+from biplan.solvers.iteration import settings_array
 from biplan.solvers.newton import make_solution
 
 __all__ = ["Deflation", "DeflationResult", "Equilibrium", "deflate", "deflated_loop"]
@@ -173,7 +178,7 @@ class DeflationResult:
 
 
 #: Coordinates beyond this [mm or rad] end a deflated run (an iterate pushed off to infinity).
-ESCAPE = 1e3
+ESCAPE = compiled_loop.ESCAPE
 #: Step halvings of the deflated line search.
 BACKTRACKS = 8
 #: Known states are padded to multiples of this (a kernel per bucket, not per count).
@@ -242,7 +247,8 @@ def deflated_loop(
 
 
 def _padded(roots: list[np.ndarray]) -> tuple[np.ndarray, np.ndarray]:
-    """The roots padded to the next multiple of :data:`ROOT_BUCKET` rows, and their mask."""
+    """The roots padded to the next multiple of :data:`ROOT_BUCKET` rows, and their mask (the
+    arguments of the JAX kernel :func:`deflated_loop`)."""
     size = ROOT_BUCKET * (len(roots) // ROOT_BUCKET + 1)
     out = np.zeros((size, roots[0].shape[0]))
     out[: len(roots)] = roots
@@ -250,22 +256,16 @@ def _padded(roots: list[np.ndarray]) -> tuple[np.ndarray, np.ndarray]:
 
 
 def _deflated_newton(
-    model: Model, z0: np.ndarray, roots: list[np.ndarray], cfg: Deflation
+    system: System, z0: np.ndarray, roots: list[np.ndarray], cfg: Deflation
 ) -> tuple[np.ndarray, float, bool]:
-    padded, mask = _padded(roots)
-    solve = deflated_loop.compiled(model.layout)
-    settings = Settings.of(cfg.tolerance, cfg.max_steps, BACKTRACKS)
-    z, status, res = solve(
-        model.params,
-        jnp.asarray(z0),
-        jnp.asarray(padded),
-        jnp.asarray(mask),
-        jnp.asarray(float(cfg.power)),
-        jnp.asarray(float(cfg.shift)),
-        settings,
+    """(z, ‖r‖∞ undeflated, converged) of one deflated Newton run from z0 on the System at
+    rest (:func:`biplan.solvers.deflated_loop.deflated_newton`)."""
+    settings = settings_array(cfg.tolerance, cfg.max_steps, BACKTRACKS, 1e-4, 0)
+    z, code, res, _ = compiled_loop.deflated_newton(
+        system.data, z0, np.stack(roots), float(cfg.power), float(cfg.shift), settings
     )
     res = float(res)
-    return np.asarray(z), res, int(status) == Status.CONVERGED.value and res < cfg.tolerance
+    return z, res, int(code) == Status.CONVERGED.value and res < cfg.tolerance
 
 
 def _starts(model: Model, known: np.ndarray, cfg: Deflation) -> list[tuple[np.ndarray, str]]:
@@ -318,8 +318,9 @@ def deflate(
     n_conv = n_bad = 0
     n_mod = model.layout.n_modules
     rotations = np.concatenate([3 * np.arange(n_mod) + 1, 3 * np.arange(n_mod) + 2])
+    system = model.system()
     for q0, label in starts:
-        z, res, ok = _deflated_newton(model, model.pack(q0), roots, cfg)
+        z, res, ok = _deflated_newton(system, model.pack(q0), roots, cfg)
         if not ok:
             continue
         n_conv += 1
@@ -330,7 +331,7 @@ def deflate(
             n_bad += 1
             continue
         found.append((z, res, label))
-    equilibria = _classify(model, found) if found else ()
+    equilibria = _classify(model, system, found) if found else ()
     return DeflationResult(
         equilibria=equilibria,
         n_new=len(equilibria),
@@ -341,12 +342,16 @@ def deflate(
     )
 
 
-def _classify(model: Model, found: list[tuple[np.ndarray, float, str]]) -> tuple[Equilibrium, ...]:
+def _classify(
+    model: Model, system: System, found: list[tuple[np.ndarray, float, str]]
+) -> tuple[Equilibrium, ...]:
     z = np.stack([f[0] for f in found])
     obs = observation.observe(model, z)
     out = []
     for k, (zk, res, label) in enumerate(found):
-        sol = make_solution(model, zk, Load.of_force(0.0), Status.CONVERGED, res, 0)
+        sol = make_solution(
+            model, zk, Load.of_force(0.0), Status.CONVERGED, res, 0, system.state(zk)
+        )
         verdict = classify(model, sol)
         phase = np.asarray(obs.phase_fraction[k])
         bits = tuple(int(b) for b in phase[:, 2] > phase[:, 0])
