@@ -66,7 +66,7 @@ def pinv(a: np.ndarray) -> np.ndarray:
 
 @njit(cache=True)
 def constraints(d: SystemData, q: np.ndarray) -> tuple:  # type: ignore[type-arg]
-    """(c (n_g + n_c,), ∂c/∂q (n_g + n_c, n_q), w_∂ (n_c,)) at q: c = [g; min(w_∂, 0)] [mm]
+    """(c (n_g + n_c,), ∂c/∂q (n_g + n_c, n_q), w_∂ (n_c,)) at q: c = (g, min(w_∂, 0)) [mm]
     (module docstring)."""
     n_q, n_g, n_c = d.sizes[0], d.sizes[1], d.sizes[2]
     t = _terms(d, q, np.zeros(n_g), np.zeros(n_c), _SECOND)
