@@ -19,10 +19,10 @@ from biplan._compile.setup import jax, jnp
 from biplan._errors import ConfigError, check_finite
 from biplan.geometry import chain
 from biplan.geometry.layout import TubeLayout
-from biplan.model.params import Load, ModelParams, StateData
+from biplan.model.params import Load, ModelParams, StateData, sizes
 from biplan.model.system import System
 from biplan.model.tube import Tube
-from biplan.options import ContactForm, ModelOptions
+from biplan.options import ModelOptions
 
 if TYPE_CHECKING:
     from biplan.model.autodiff import Kernels
@@ -36,17 +36,6 @@ def _law_rows(laws: tuple) -> np.ndarray:  # type: ignore[type-arg]
     if not laws:
         return np.zeros((0, 5))
     return np.asarray([law.coefficients for law in laws], dtype=np.float64)
-
-
-def sizes(layout: TubeLayout) -> tuple[int, int, int]:
-    """(n_q, n_g, n_c): coordinates, guide and contact multipliers of a layout."""
-    nq = layout.n_coordinates
-    ng = 2 * layout.n_modules
-    if layout.options.contact is ContactForm.MINIMUM:
-        nc = 2 * layout.n_modules + layout.n_connectors
-    else:
-        nc = 2 * layout.n_modules + len(chain.tables(layout).contact_pt)
-    return nq, ng, nc
 
 
 def kernels(layout: TubeLayout) -> Kernels:

@@ -31,7 +31,7 @@ from biplan.geometry.layout import TubeLayout
 from biplan.model import elements
 from biplan.model.elements.reduced import full_coordinates, n_reduced, reduced_terms
 from biplan.model.params import AT_REST, Load, ModelParams, StateData
-from biplan.options import ContactForm
+from biplan.model.params import sizes as params_sizes
 
 __all__ = [
     "StateData",
@@ -293,14 +293,7 @@ def sizes(layout: TubeLayout) -> tuple[int, int, int]:
     return _sizes(layout)
 
 
-def _sizes(layout: TubeLayout) -> tuple[int, int, int]:
-    nq = layout.n_coordinates
-    ng = 2 * layout.n_modules
-    if layout.options.contact is ContactForm.MINIMUM:
-        nc = 2 * layout.n_modules + layout.n_connectors
-    else:
-        nc = 2 * layout.n_modules + len(chain.tables(layout).contact_pt)
-    return nq, ng, nc
+_sizes = params_sizes
 
 
 def _split(layout: TubeLayout, z: Array) -> tuple[Array, Array, Array, Array]:

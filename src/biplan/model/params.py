@@ -15,6 +15,8 @@ import numpy as np
 from biplan._compile.setup import jnp
 from biplan._errors import check_finite, check_range
 from biplan.geometry import chain
+from biplan.geometry.layout import TubeLayout
+from biplan.options import ContactForm
 
 __all__ = ["AT_REST", "Load", "ModelParams", "StateData"]
 
@@ -108,3 +110,15 @@ class StateData(NamedTuple):
     lagrangian_hessian: Array
     constraint_jacobian: Array  # rows [g; w_∂; z_p]
     gaps: Array
+
+
+def sizes(layout: TubeLayout) -> tuple[int, int, int]:
+    """(n_q, n_g, n_c): coordinates, guide and contact multipliers of a layout."""
+
+    nq = layout.n_coordinates
+    ng = 2 * layout.n_modules
+    if layout.options.contact is ContactForm.MINIMUM:
+        nc = 2 * layout.n_modules + layout.n_connectors
+    else:
+        nc = 2 * layout.n_modules + len(chain.tables(layout).contact_pt)
+    return nq, ng, nc

@@ -44,7 +44,7 @@ from biplan.model.system.reduced import (
     penalized_value,
 )
 from biplan.model.system.tables import SystemData
-from biplan.solvers.iteration import NO_BORDER, NO_STEP, newton
+from biplan.solvers.iteration import NO_BORDER, NO_STEP, _solve, newton
 
 __all__ = ["relax_seed", "relax_seeds"]
 
@@ -61,15 +61,6 @@ ARMIJO = 1e-4
 DESCENT_MAX_STEP = 1.0
 DESCENT_GTOL = 1e-3
 SHIFT_FLOOR = 1e-6
-
-
-@njit(cache=True)
-def _solve(a: np.ndarray, b: np.ndarray) -> np.ndarray:
-    """a⁻¹ b by LU; NaN where a is singular."""
-    try:
-        return np.linalg.solve(a, b)
-    except Exception:
-        return np.full(b.shape[0], np.nan)
 
 
 @njit(cache=True)
