@@ -105,7 +105,7 @@ def test_fully_bistable_states_at_rest_equal_jax(model4_element, fully_states):
 
 
 def test_parallel_serial_and_one_state_agree(model6, semi_states):
-    """The prange kernel, the serial one and the one-state kernel fed the Jacobian of
+    """Blocks on several threads, the serial kernel and the one-state kernel fed the Jacobian of
     :meth:`System.jacobian` give the same numbers, bit for bit."""
     zs, rows = semi_states
     zs, rows = np.concatenate([zs] * 3), np.concatenate([rows] * 3)  # a few per thread

@@ -22,7 +22,7 @@ from biplan.model import potential
 from biplan.model.elements import reduced as oracle
 from biplan.model.system import chainterm, reduced
 from biplan.options import ChainAttachment, ContactForm, TpcSign
-from biplan.solvers import iteration, relax_loop
+from biplan.solvers import iteration, lanes, relax_loop
 from biplan.solvers.observation import phase_fractions
 from conftest import make_tube
 
@@ -142,7 +142,10 @@ def relaxed():
     )
     args = (float(settings.penalty_stiffness), int(settings.max_iterations), method)
     d = model.system().data
-    batch = relax_loop.relax_seeds(d, target, mask, *args)
+    k, n_z = len(target), model.n_unknowns
+    batch = (np.empty((k, n_z)), np.empty(k, np.int64), np.empty(k), np.empty(k, np.int64))
+    with lanes.limited(2):  # blocks of seeds on two threads
+        lanes.run_rows(relax_loop.relax_rows, k, d, target, mask, *args, *batch)
     return model, d, target, mask, args, batch
 
 

@@ -5,10 +5,8 @@ The compiled counterparts of the JAX map kernels, for one tube (its
 and laws, so a map groups its tasks by point (:mod:`biplan.analysis.maps`).
 
 * :func:`solve_tasks` — many (start, load) tasks of one tube, each solved by the one compiled
-  globalised Newton (:func:`biplan.solvers.iteration.newton`), in parallel over the tasks
-  (``prange``): the lanes of the JAX pool (:func:`biplan.solvers.pool.newton_pool`), which
-  run the same iteration per task (same statuses, same solutions to round-off); the
-  stability map's seeds and continuation steps;
+  globalised Newton (:func:`biplan.solvers.iteration.newton`), in parallel blocks of tasks
+  (:mod:`biplan.solvers.lanes`): the stability map's seeds and continuation steps;
 * :func:`chord` — chord (modified Newton) iterates with a fixed Jacobian
   (:func:`biplan.solvers.strategies.chord`);
 * :func:`ramp` — the design map's quasi-static force ramp of one design: per load step a
@@ -17,17 +15,19 @@ and laws, so a map groups its tasks by point (:mod:`biplan.analysis.maps`).
   (the JAX kernel ``design_lanes`` of :mod:`biplan.analysis.maps.design_map`).
 
 The kernels release the GIL (``nogil``), so the chunks of a map run in parallel on the
-threads of :func:`biplan.analysis.scaleout.thread_runner`. They take run-time arrays and flags
+threads of :func:`biplan.analysis.scaleout.thread_runner`, and the blocks of tasks on the
+lanes' threads. They take run-time arrays and flags
 only (no default arguments), so each compiles once per install (``cache=True``).
 """
 
 from __future__ import annotations
 
 import numpy as np
-from numba import njit, prange
+from numba import njit
 
 from biplan.model.system import assemble
 from biplan.model.system.tables import SystemData
+from biplan.solvers import lanes
 from biplan.solvers.core_settings import Status
 from biplan.solvers.iteration import newton
 from biplan.solvers.observation import observe_state
@@ -37,12 +37,32 @@ __all__ = ["chord", "ramp", "solve_tasks"]
 _CONVERGED = Status.CONVERGED.value
 
 
-@njit(cache=True, parallel=True, nogil=True)
+@njit(cache=True, nogil=True)
+def _solve_rows(
+    d: SystemData,
+    z0: np.ndarray,
+    loads: np.ndarray,
+    settings: np.ndarray,
+    z: np.ndarray,
+    status: np.ndarray,
+    steps: np.ndarray,
+    lo: int,
+    hi: int,
+) -> None:
+    """The tasks lo … hi − 1 of :func:`solve_tasks` into rows lo:hi of its outputs."""
+    for t in range(lo, hi):
+        out = newton(d, loads[t], z0[t], settings, np.zeros(0), 0.0, np.zeros(0))
+        z[t] = out[0]
+        steps[t] = out[4]
+        status[t] = out[5]
+
+
 def solve_tasks(
     d: SystemData, z0: np.ndarray, loads: np.ndarray, settings: np.ndarray
 ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """Solve r(z) = 0 of one tube from many starts and loads by
-    :func:`biplan.solvers.iteration.newton`, in parallel over the tasks.
+    :func:`biplan.solvers.iteration.newton`, in parallel blocks of tasks
+    (:mod:`biplan.solvers.lanes`).
 
     Parameters
     ----------
@@ -63,15 +83,13 @@ def solve_tasks(
         and accepted Newton steps (T,): each task's result equals one
         :func:`~biplan.solvers.iteration.newton` call.
     """
+    z0 = np.ascontiguousarray(z0, dtype=float)
+    loads = np.ascontiguousarray(loads, dtype=float)
     k, n = z0.shape
     z = np.empty((k, n))
     status = np.empty(k, dtype=np.int64)
     steps = np.empty(k, dtype=np.int64)
-    for t in prange(k):
-        out = newton(d, loads[t], z0[t], settings, np.zeros(0), 0.0, np.zeros(0))
-        z[t] = out[0]
-        steps[t] = out[4]
-        status[t] = out[5]
+    lanes.run_rows(_solve_rows, k, d, z0, loads, settings, z, status, steps)
     return z, status, steps
 
 

@@ -30,7 +30,7 @@ import numpy as np
 
 from biplan._errors import ConfigError, ConvergenceError, check_integer, check_range
 from biplan.model.assembly import Model
-from biplan.solvers import observation, path_loop
+from biplan.solvers import lanes, observation, path_loop
 from biplan.solvers.control import Control
 from biplan.solvers.newton import Newton, Solution, solve_equilibrium
 from biplan.solvers.observe import CHUNK, STABILITY_TOL, Observation
@@ -413,17 +413,25 @@ def _correct(
 ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """Correct predictors (zp, Λp) onto the path on the hyperplanes (row_z, row_l)·x = ρ:
     (z, Λ, converged) of each."""
-    system = model.system()
-    return path_loop.correct_batch(
-        system.data,
-        np.ascontiguousarray(zp),
+    zp = np.ascontiguousarray(zp, dtype=float)
+    k = zp.shape[0]
+    z, lam, ok = np.zeros_like(zp), np.zeros(k), np.zeros(k, dtype=np.bool_)
+    lanes.run_rows(
+        path_loop.correct_rows,
+        k,
+        model.system().data,
+        zp,
         np.asarray(lp, dtype=float),
         np.asarray(ctl, dtype=float),
         np.append(row_z, row_l),
         np.asarray(rho, dtype=float),
         method.atol,
         method.max_iterations,
+        z,
+        lam,
+        ok,
     )
+    return z, lam, ok
 
 
 def _insert(

@@ -28,9 +28,9 @@ JAX kernel's shifted-matrix eigenvalue exactly (its shift lies above every eigen
 λ_min = +∞ when no direction is left (dim N = 0: a contact-locked state).
 
 :func:`observe_state` observes one state from its Jacobian (what a Newton solve ends with),
-:func:`observe_states` a batch, assembling each Jacobian, in parallel over the states
-(``numba.prange``); :func:`observe` is the Python entry point that returns an
-:class:`~biplan.solvers.observe.Observation` of NumPy arrays.
+:func:`observe_rows` a block of a batch, assembling each Jacobian (the blocks run in
+parallel, :mod:`biplan.solvers.lanes`); :func:`observe` is the Python entry point that
+returns an :class:`~biplan.solvers.observe.Observation` of NumPy arrays.
 """
 
 from __future__ import annotations
@@ -39,11 +39,12 @@ import math
 from typing import Any, NamedTuple
 
 import numpy as np
-from numba import njit, prange
+from numba import njit
 
 from biplan.model.system import assemble, chainterm
 from biplan.model.system.elements import connector_points
 from biplan.model.system.tables import SystemData
+from biplan.solvers import lanes
 
 __all__ = [
     "ACTIVE_GAP",
@@ -52,9 +53,8 @@ __all__ = [
     "RANK_RTOL",
     "min_reduced_eigenvalue",
     "observe",
+    "observe_rows",
     "observe_state",
-    "observe_states",
-    "observe_states_serial",
     "phase_fractions",
 ]
 
@@ -64,7 +64,7 @@ ACTIVE_MULTIPLIER = 1e-6
 ACTIVE_GAP = 1e-4
 #: Relative SVD rank tolerance of the active-constraint Jacobian.
 RANK_RTOL = 1e-9
-#: :func:`observe` runs in parallel from this many states per thread of Numba's pool.
+#: :func:`observe` gives a thread to every this many states (:mod:`biplan.solvers.lanes`).
 PARALLEL_MIN_STATES = 8
 
 
@@ -322,7 +322,7 @@ def _observe_one(d: SystemData, z: np.ndarray, load: np.ndarray, weak_contacts: 
 
 @njit(cache=True)
 def _allocate(k: int, n_f: int) -> tuple:
-    """The output arrays of :func:`observe_states` for k states of n_f folds."""
+    """The output arrays of :func:`observe_rows` for k states of n_f folds."""
     return (
         np.empty(k),
         np.empty(k),
@@ -350,10 +350,18 @@ def _store(out: tuple, i: int, o: tuple) -> None:
     out[8][i], out[9][i], out[10][i], out[11][i], out[12][i] = o[8], o[9], o[10], o[11], o[12]
 
 
-@njit(cache=True, parallel=True)
-def observe_states(d: SystemData, zs: np.ndarray, loads: np.ndarray, weak_contacts: bool) -> tuple:
-    """:func:`observe_state` of k states, each with its Jacobian assembled here, in parallel
-    over the states (``numba.prange``).
+@njit(cache=True, nogil=True)
+def observe_rows(
+    d: SystemData,
+    zs: np.ndarray,
+    loads: np.ndarray,
+    weak_contacts: bool,
+    out: tuple,  # type: ignore[type-arg]
+    lo: int,
+    hi: int,
+) -> None:
+    """:func:`observe_state` of the states lo … hi − 1, each with its Jacobian assembled here,
+    into rows lo:hi of ``out`` (:func:`_allocate`; a lane of :func:`biplan.solvers.lanes.run_rows`).
 
     Parameters
     ----------
@@ -365,33 +373,15 @@ def observe_states(d: SystemData, zs: np.ndarray, loads: np.ndarray, weak_contac
         (F [N], U [mm], d) of each state.
     weak_contacts : bool
         Count closed contacts as active whatever their multiplier (S1).
-
-    Returns
-    -------
-    tuple
+    out : tuple
         The fields of :func:`observe_state` as arrays with leading axis k (fold energies
         (k, N + Nc) [N·mm], phase fractions (k, N + Nc, 3); dim N and the active contacts
         int64).
+    lo, hi : int
+        The rows to observe.
     """
-    k = zs.shape[0]
-    out = _allocate(k, d.ref.shape[0] + d.conn_upper.shape[0])
-    for i in prange(k):
-        o = _observe_one(d, zs[i], loads[i], weak_contacts)
-        _store(out, i, o)
-    return out
-
-
-@njit(cache=True)
-def observe_states_serial(
-    d: SystemData, zs: np.ndarray, loads: np.ndarray, weak_contacts: bool
-) -> tuple:
-    """:func:`observe_states` in one thread (no start-up or join of the thread pool: faster
-    for a few states, or where the cores are busy)."""
-    k = zs.shape[0]
-    out = _allocate(k, d.ref.shape[0] + d.conn_upper.shape[0])
-    for i in range(k):
+    for i in range(lo, hi):
         _store(out, i, _observe_one(d, zs[i], loads[i], weak_contacts))
-    return out
 
 
 def observe(
@@ -419,17 +409,15 @@ def observe(
         ``weak_contacts_active``). Default: a Model's own option; for a System or SystemData,
         which do not carry it, ``False`` (the default reading).
     parallel : bool, optional
-        Run :func:`observe_states` (parallel over the states) or
-        :func:`observe_states_serial`; default: parallel from :data:`PARALLEL_MIN_STATES`
-        states per thread of Numba's pool.
+        Observe blocks of states on :func:`~biplan.solvers.lanes.thread_count` threads
+        (:mod:`biplan.solvers.lanes`) or all in the calling thread; default: a thread per
+        :data:`PARALLEL_MIN_STATES` states, up to that count.
 
     Returns
     -------
     Observation
         :class:`biplan.solvers.observe.Observation` of NumPy arrays with leading axis k.
     """
-    import numba
-
     source = system_or_data
     zs = np.ascontiguousarray(np.atleast_2d(np.asarray(zs, dtype=float)))
     k = zs.shape[0]
@@ -456,11 +444,13 @@ def observe(
             for field, v in zip(out, part, strict=True):
                 field[finite] = v
         return out
-    threads = numba.get_num_threads()
-    if parallel is None:
-        parallel = threads > 1 and k >= PARALLEL_MIN_STATES * threads
-    kernel = observe_states if parallel else observe_states_serial
-    return Observation(*kernel(d, zs, table, bool(weak_contacts)))
+    out = _allocate(k, d.ref.shape[0] + d.conn_upper.shape[0])
+    threads = 1 if parallel is False else None
+    rows = 1 if parallel else PARALLEL_MIN_STATES
+    lanes.run_rows(
+        observe_rows, k, d, zs, table, bool(weak_contacts), out, threads=threads, min_rows=rows
+    )
+    return Observation(*out)
 
 
 def _missing(k: int, n_folds: int) -> Observation:

@@ -19,7 +19,7 @@ whole failed cycle.
 from __future__ import annotations
 
 import numpy as np
-from numba import njit, prange
+from numba import njit
 
 from biplan.model.system.tables import SystemData
 from biplan.solvers.core_settings import Status
@@ -31,7 +31,7 @@ __all__ = [
     "MAX_STEPS",
     "RETURNED",
     "STALLED",
-    "correct_batch",
+    "correct_rows",
     "corrector",
     "path_loop",
 ]
@@ -77,8 +77,8 @@ def corrector(
     )
 
 
-@njit(cache=True, parallel=True)
-def correct_batch(
+@njit(cache=True, nogil=True)
+def correct_rows(
     d: SystemData,
     zp: np.ndarray,
     lp: np.ndarray,
@@ -87,17 +87,18 @@ def correct_batch(
     rho: np.ndarray,
     atol: float,
     max_iterations: int,
-) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """:func:`corrector` of k predictors (zp (k, n), Λp (k,)) on the hyperplanes row·x = ρ_k,
-    in parallel: (z (k, n), Λ (k,), converged (k,))."""
-    k, n = zp.shape
-    z = np.zeros((k, n))
-    lam = np.zeros(k)
-    ok = np.zeros(k, dtype=np.bool_)
-    for i in prange(k):
+    z: np.ndarray,
+    lam: np.ndarray,
+    ok: np.ndarray,
+    lo: int,
+    hi: int,
+) -> None:
+    """:func:`corrector` of the predictors lo … hi − 1 (zp (k, n), Λp (k,)) on the
+    hyperplanes row·x = ρ_k, into rows lo:hi of z (k, n), Λ (k,) and converged (k,) (a lane of
+    :func:`biplan.solvers.lanes.run_rows`)."""
+    for i in range(lo, hi):
         out = corrector(d, zp[i], lp[i], ctl, row, rho[i], atol, max_iterations)
         z[i], lam[i], ok[i] = out[0], out[1], out[2]
-    return z, lam, ok
 
 
 @njit(cache=True)

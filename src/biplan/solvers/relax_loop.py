@@ -26,7 +26,8 @@ guide penalty to make the descent stiff):
    otherwise start at the curve's corner) and the guide multipliers by least squares on the
    stationarity rows. Its status and residual are the seed's.
 
-:func:`relax_seeds` runs the seeds in parallel (``prange``).
+:func:`relax_rows` relaxes a block of seeds; the blocks run in parallel
+(:mod:`biplan.solvers.lanes`).
 """
 
 from __future__ import annotations
@@ -34,7 +35,7 @@ from __future__ import annotations
 import math
 
 import numpy as np
-from numba import njit, prange
+from numba import njit
 
 from biplan.model.system.assemble import _SECOND, _terms
 from biplan.model.system.reduced import (
@@ -46,7 +47,7 @@ from biplan.model.system.reduced import (
 from biplan.model.system.tables import SystemData
 from biplan.solvers.iteration import NO_BORDER, NO_STEP, _solve, newton
 
-__all__ = ["relax_seed", "relax_seeds"]
+__all__ = ["relax_rows", "relax_seed"]
 
 #: Gauss–Newton iterations of the kinematic seed (at most), the largest step [mm] per
 #: iteration, and the step below which the seed has converged [mm].
@@ -197,27 +198,27 @@ def relax_seed(
     return z, status, np.max(np.abs(r)), iterations
 
 
-@njit(cache=True, parallel=True)
-def relax_seeds(
+@njit(cache=True, nogil=True)
+def relax_rows(
     d: SystemData,
     targets: np.ndarray,
     masks: np.ndarray,
     stiffness: float,
     max_iterations: int,
     settings: np.ndarray,
-) -> tuple:  # type: ignore[type-arg]
-    """:func:`relax_seed` of every row of ``targets``/``masks`` (k, N + Nc), in parallel:
-    (z (k, n_z), status (k,), max |r| (k,), descent iterations (k,))."""
-    k = targets.shape[0]
-    n_z = d.sizes[0] + d.sizes[1] + d.sizes[2] + 1
-    zs = np.empty((k, n_z))
-    status = np.empty(k, dtype=np.int64)
-    residual = np.empty(k)
-    iterations = np.empty(k, dtype=np.int64)
-    for i in prange(k):
+    zs: np.ndarray,
+    status: np.ndarray,
+    residual: np.ndarray,
+    iterations: np.ndarray,
+    lo: int,
+    hi: int,
+) -> None:
+    """:func:`relax_seed` of the rows lo … hi − 1 of ``targets``/``masks`` (k, N + Nc), into
+    rows lo:hi of z (k, n_z), status (k,), max |r| (k,) and descent iterations (k,) (a lane of
+    :func:`biplan.solvers.lanes.run_rows`)."""
+    for i in range(lo, hi):
         z, s, r, it = relax_seed(d, targets[i], masks[i], stiffness, max_iterations, settings)
         zs[i] = z
         status[i] = s
         residual[i] = r
         iterations[i] = it
-    return zs, status, residual, iterations

@@ -35,7 +35,7 @@ from biplan._errors import ConfigError
 from biplan.geometry import FoldRef
 from biplan.model.assembly import Model
 from biplan.model.tube import Tube
-from biplan.solvers import observation, relax_loop
+from biplan.solvers import lanes, observation, relax_loop
 from biplan.solvers.core_settings import Status
 from biplan.solvers.iteration import settings_array
 
@@ -157,17 +157,27 @@ def relax_seeds(
         newton.atol, newton.max_steps, newton.max_backtracks, newton.armijo, newton.free_steps
     )
     data = model.system().data
+    n_z = model.n_unknowns
     k, chunk = len(target), settings.chunk
     zs, status, residual = [], [], []
     for lo in range(0, k, chunk):
         hi = min(lo + chunk, k)
-        z, s, r, _ = relax_loop.relax_seeds(
+        n = hi - lo
+        z, s = np.empty((n, n_z)), np.empty(n, dtype=np.int64)
+        r, its = np.empty(n), np.empty(n, dtype=np.int64)
+        lanes.run_rows(
+            relax_loop.relax_rows,
+            n,
             data,
             np.ascontiguousarray(target[lo:hi], dtype=float),
             np.ascontiguousarray(mask[lo:hi], dtype=float),
             float(settings.penalty_stiffness),
             int(settings.max_iterations),
             method,
+            z,
+            s,
+            r,
+            its,
         )
         zs.append(z)
         status.append(s)
@@ -279,15 +289,9 @@ def thread_count(settings: Enumeration) -> int:
 
 @contextlib.contextmanager
 def _threads(n: int) -> Iterator[None]:
-    """Numba's parallel kernels on at most ``n`` threads inside the block."""
-    import numba
-
-    before = numba.get_num_threads()
-    numba.set_num_threads(max(1, min(n, numba.config.NUMBA_NUM_THREADS)))  # type: ignore[attr-defined]
-    try:
+    """The compiled lanes (:mod:`biplan.solvers.lanes`) on at most ``n`` threads in the block."""
+    with lanes.limited(max(1, n)):
         yield
-    finally:
-        numba.set_num_threads(before)
 
 
 def _chunks(indices: np.ndarray, size: int) -> list[np.ndarray]:
