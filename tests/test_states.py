@@ -293,6 +293,34 @@ def test_laws_inferred_from_fig4_meet_the_papers_elongation(model4):
         biplan.designs.fully_bistable(laws="fitted")
 
 
+def test_laws_inferred_from_fig4_under_the_printed_sign() -> None:
+    """designs.fully_bistable(laws=INFERRED_FIG4_PRINTED): built under the printed TPC sign it
+    was searched under; 00, 2A, 1B and 66 stable, 42 states, slope levels in thirds (no state
+    with four open helical folds), 66 and 1B within 0.05 of u_z/l0 = 0.9 and 0.1 of Θ = 2/3,
+    1B deflecting more (docs/fidelity.md, "Fig. 4 under the printed TPC sign")."""
+    from biplan.analysis.states.search import enumerate_states
+    from biplan.options import ChainAttachment, TpcSign
+
+    laws = biplan.designs.FullyBistableLaws.INFERRED_FIG4_PRINTED
+    tube = biplan.designs.fully_bistable(laws="inferred-from-fig4-printed")
+    assert tube.options.tpc_sign is TpcSign.AS_PRINTED
+    assert tube.options.chain_attachment is ChainAttachment.EDGE_FIT and "printed" in tube.name
+    catalogue = enumerate_states(biplan.Model(tube))
+    assert {"00", "2A", "1B", "66"} <= set(catalogue.names) and len(catalogue) == 42
+    assert max(catalogue.open_counts(s)[0] for s in catalogue.states) == 3
+    l0 = tube.initial_length
+    pair = [catalogue.state(label) for label in ("66", "1B")]
+    for s in pair:
+        assert abs(s.u_z / l0 - 0.9) < 0.05 and abs(abs(catalogue.slope(s)) - 2 / 3) < 0.1
+    assert abs(pair[1].u_r) > abs(pair[0].u_r)
+    # under the geometric sign the same laws keep the four states but give 66 states
+    geometric = biplan.ModelOptions(chain_attachment=ChainAttachment.EDGE_FIT)
+    assert (
+        len(enumerate_states(biplan.Model(biplan.designs.fully_bistable(geometric, laws=laws))))
+        == 66
+    )
+
+
 def test_single_fold_pairs_equal_the_pairwise_hamming_test() -> None:
     """The transition graph's edges come from a bit-flip lookup; the O(k²) pairwise Hamming
     distance (the reference) gives the same pairs, in the same order, also where two states

@@ -32,7 +32,7 @@ def state_count(r: Results) -> Finding:
         f"{n} stable states from {s.n_seeds} seeds",
         grade_distance(abs(n - PAPER_N_STATES) + abs(s.n_seeds - 128), 0, 7),
         f"paper: {PAPER_N_STATES} of 128; the fully bistable laws are not given in the paper "
-        "(inferred from its u_z/l0 of 66 and 1B; docs/fidelity.md)",
+        "(inferred from Fig. 4 under the run's TPC sign; docs/fidelity.md)",
     )
 
 

@@ -10,6 +10,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from biplan.analysis.states.hierarchy import count_peaks
 from biplan.reproduction.facts import Results
 from biplan.reproduction.grading import Finding, fmt, grade, grade_distance, yes_no
 
@@ -31,21 +32,12 @@ def slope_peak(r: Results) -> Finding:
     )
 
 
-def _n_peaks(counts: np.ndarray) -> int:
-    """Local maxima of a histogram (a plateau counts once; zero bins are no peak)."""
-    c = np.asarray(counts, dtype=float)
-    keep = np.r_[True, np.diff(c) != 0]  # collapse plateaus
-    v = c[keep]
-    padded = np.r_[-1.0, v, -1.0]
-    return int(np.sum((v > padded[:-2]) & (v > padded[2:]) & (v > 0)))
-
-
 def elongation_bimodal(r: Results) -> Finding:
     """``si.dist.elongation``: two peaks in the u_z/l₀ distribution (partly one or
     three)."""
     s = r.states
     assert s is not None
-    n = _n_peaks(s.u_z_counts)
+    n = count_peaks(s.u_z_counts)
     return Finding(
         f"{n} peak(s) in the u_z/l0 distribution ({len(s.labels)} states)",
         grade_distance(abs(n - 2), 0, 1),
@@ -65,7 +57,7 @@ def deflection_peaks(r: Results) -> Finding:
     mode = float(x[int(np.argmax(c))])
     in_band = (np.abs(s.u_r) >= 1 / 8) & (np.abs(s.u_r) <= 5 / 8)
     bins_in = (np.abs(x) >= 1 / 8 - width / 2) & (np.abs(x) <= 5 / 8 + width / 2)
-    secondary = bool(in_band.any()) and _n_peaks(np.where(bins_in, c, 0)) >= 1
+    secondary = bool(in_band.any()) and count_peaks(np.where(bins_in, c, 0)) >= 1
     checks = [abs(mode) <= max(width, 1 / 16), secondary]
     return Finding(
         f"mode at u_r/l0 = {mode:.3f}; {int(in_band.sum())} states with u_r/l0 in [1/8, 5/8]",

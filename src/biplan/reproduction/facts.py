@@ -18,6 +18,7 @@ from typing import Any
 import numpy as np
 
 from biplan.analysis.response.summary import phase_one_end
+from biplan.analysis.states.law_records import PAPER_N_STATES, PAPER_STATES, PAPER_SUB_BRANCH
 from biplan.analysis.states.transitions import PAPER_PATHWAYS
 
 __all__ = [
@@ -42,12 +43,8 @@ __all__ = [
 RAMP_FORCE = 1.6
 #: The paper's geometric ratio of the validated design (Fig. 3 A.3: b = 0.58).
 PAPER_B = 0.58
-#: The paper's number of stable states of the four-module fully bistable MFT (SI S11).
-PAPER_N_STATES = 34
-#: The paper's u_z/l0 of the iso-elongation sub-branch of 66 and 1B (main text, Fig. 4 B).
-PAPER_SUB_BRANCH = 0.9
-#: The paper's states named in the main text (Fig. 4 A–B).
-PAPER_STATES = ("00", "2A", "1B", "66")
+# PAPER_N_STATES, PAPER_STATES, PAPER_SUB_BRANCH (Fig. 4) are defined with the fold-law
+# search's records (biplan.analysis.states.law_records), which measures law sets against them.
 
 
 def snapshot_steps(force: Any, stable: Any, switched: Any) -> dict[str, int]:

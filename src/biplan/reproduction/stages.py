@@ -231,8 +231,10 @@ def _stage_stability_map(ctx: StageContext) -> None:
 
 def _stage_states(ctx: StageContext) -> None:
     """Runs ``biplan states`` on the fully bistable design, with the laws inferred from Fig. 4
-    (``designs.FullyBistableLaws.INFERRED_FIG4``: they meet the paper's u_z/l0 of 66 and 1B,
-    and every statement the provisional laws meet; docs/fidelity.md), in a child process
+    under the run's TPC sign (``designs.FullyBistableLaws.INFERRED_FIG4`` under the geometric
+    sign: they meet the paper's u_z/l0 of 66 and 1B, and every statement the provisional laws
+    meet; ``INFERRED_FIG4_PRINTED`` under ``as_printed``, where the former lose 66: the best
+    set of the printed-sign law search; docs/fidelity.md), in a child process
     (with a time limit: a hung or crashed enumeration cannot stop the other stages), then
     reads its files."""
     import biplan
@@ -244,7 +246,8 @@ def _stage_states(ctx: StageContext) -> None:
     config = folder / "fully_bistable.toml"
     sign = TpcSign(ctx.settings.tpc_sign)
     options = biplan.ModelOptions(chain_attachment=ChainAttachment.EDGE_FIT, tpc_sign=sign)
-    laws = biplan.designs.FullyBistableLaws.INFERRED_FIG4
+    inferred = biplan.designs.FullyBistableLaws
+    laws = inferred.INFERRED_FIG4_PRINTED if sign is TpcSign.AS_PRINTED else inferred.INFERRED_FIG4
     tube = biplan.designs.fully_bistable(options, laws=laws)
     config.write_text(dump_config(tube), encoding="utf-8")
     command = [sys.executable, "-m", "biplan", "states", str(config), "--out", str(folder), "-q"]

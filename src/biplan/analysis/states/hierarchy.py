@@ -20,10 +20,20 @@ import numpy as np
 
 from biplan.analysis.states.catalogue import StateCatalogue
 
-__all__ = ["BINS", "hierarchy"]
+__all__ = ["BINS", "count_peaks", "hierarchy"]
 
 #: Default number of histogram bins per endpoint quantity.
 BINS = 12
+
+
+def count_peaks(counts: np.ndarray) -> int:
+    """Local maxima of a histogram (a plateau counts once; zero bins are no peak): the
+    modes of the SI's distributions (the elongation one is bimodal)."""
+    c = np.asarray(counts, dtype=float)
+    keep = np.r_[True, np.diff(c) != 0]  # collapse plateaus
+    v = c[keep]
+    padded = np.r_[-1.0, v, -1.0]
+    return int(np.sum((v > padded[:-2]) & (v > padded[2:]) & (v > 0)))
 
 
 def _rms(x: np.ndarray) -> float:
