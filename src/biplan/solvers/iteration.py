@@ -26,6 +26,7 @@ solve converges when the undeflated residual is below the tolerance.
 from __future__ import annotations
 
 import math
+from typing import Any
 
 import numpy as np
 from numba import njit
@@ -47,6 +48,7 @@ __all__ = [
     "newton",
     "settings_array",
     "solve",
+    "solve_system",
 ]
 
 _CONVERGED = Status.CONVERGED.value
@@ -150,7 +152,7 @@ def _lm_direction(jac: np.ndarray, r: np.ndarray, damping: float) -> np.ndarray:
     return step
 
 
-@njit(cache=True)
+@njit(cache=True, inline="always")
 def newton(
     d: SystemData,
     load: np.ndarray,
@@ -168,8 +170,20 @@ def newton(
 
     Returns (z, R, merit f, Jacobian at z, steps, status); the Jacobian is the one at z once a
     pass was accepted (finite f).
+
+    Inlined into its compiled callers (``inline="always"``): a compiled function of its own
+    would re-optimise the whole system below it once more (docs/performance.md, "One-time
+    compile"); Python calls :func:`solve` with :data:`NO_DEFLATION` instead.
     """
     return solve(d, load, z0, settings, border, rho, step, NO_DEFLATION)
+
+
+def solve_system(system: Any, z0: np.ndarray, settings: np.ndarray) -> tuple:  # type: ignore[type-arg]
+    """:func:`newton` on a :class:`~biplan.model.system.System` (its data and load) from z0,
+    called from Python (through :func:`solve`, which is compiled on its own)."""
+    return solve(  # type: ignore[no-any-return]
+        system.data, system.load, z0, settings, NO_BORDER, 0.0, NO_STEP, NO_DEFLATION
+    )
 
 
 @njit(cache=True)

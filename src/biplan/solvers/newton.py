@@ -316,17 +316,13 @@ def _solve_compiled(
     settings = settings_array(
         method.atol, method.max_steps, method.max_backtracks, method.armijo, method.free_steps
     )
-    z, r, f, jac, steps, status = iteration.newton(
-        system.data, system.load, z0, settings, iteration.NO_BORDER, 0.0, iteration.NO_STEP
-    )
+    z, r, f, jac, steps, status = iteration.solve_system(system, z0, settings)
     restarts = 0
     q0, lam0, lam_c0, mu0 = model.split(z0)
     if method.contact_restart and status != Status.CONVERGED.value and np.any(lam_c0):
         # the start's contact multipliers can be smoothing artefacts (Newton.contact_restart)
         cold = model.pack(q0, lam0, None, mu0)
-        retry = iteration.newton(
-            system.data, system.load, cold, settings, iteration.NO_BORDER, 0.0, iteration.NO_STEP
-        )
+        retry = iteration.solve_system(system, cold, settings)
         restarts, steps = 1, steps + retry[4]
         if retry[5] == Status.CONVERGED.value:
             z, r, f, jac, _, status = retry

@@ -312,7 +312,7 @@ def observe_state(
     return _observation(d, z, load, jac, t[2], t[3], t[6], t[7], zp, weak_contacts)
 
 
-@njit(cache=True)
+@njit(cache=True, inline="always")
 def _observe_one(d: SystemData, z: np.ndarray, load: np.ndarray, weak_contacts: bool) -> tuple:
     """:func:`observe_state` of z with its Jacobian assembled here."""
     _, jac, _, _, t = assemble.evaluate(d, z, load, True)
@@ -444,13 +444,13 @@ def observe(
             for field, v in zip(out, part, strict=True):
                 field[finite] = v
         return out
-    out = _allocate(k, d.ref.shape[0] + d.conn_upper.shape[0])
+    fields = _allocate(k, d.ref.shape[0] + d.conn_upper.shape[0])
     threads = 1 if parallel is False else None
     rows = 1 if parallel else PARALLEL_MIN_STATES
     lanes.run_rows(
-        observe_rows, k, d, zs, table, bool(weak_contacts), out, threads=threads, min_rows=rows
+        observe_rows, k, d, zs, table, bool(weak_contacts), fields, threads=threads, min_rows=rows
     )
-    return Observation(*out)
+    return Observation(*fields)
 
 
 def _missing(k: int, n_folds: int) -> Observation:

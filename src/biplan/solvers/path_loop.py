@@ -45,7 +45,7 @@ RETURNED, LIMIT_POINT = 5, 6
 DAMPED_BACKTRACKS = 12
 
 
-@njit(cache=True)
+@njit(cache=True, inline="always")
 def corrector(
     d: SystemData,
     z0: np.ndarray,

@@ -227,9 +227,7 @@ def _refine(
     settings = iteration.settings_array(
         m.atol, m.max_steps, m.max_backtracks, m.armijo, m.free_steps
     )
-    z, r, f, jac, _, status = iteration.newton(
-        system.data, system.load, z0, settings, iteration.NO_BORDER, 0.0, iteration.NO_STEP
-    )
+    z, r, f, jac, _, status = iteration.solve_system(system, z0, settings)
     data = system.state(z, jac if np.isfinite(f) else None)
     return z, int(status), float(np.max(np.abs(r))), data
 

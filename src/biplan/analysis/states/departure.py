@@ -155,9 +155,7 @@ class _Stepper:
         settings = self.settings
         if bias is not None:
             system, settings = system.with_bias(*bias), self.sub_settings
-        out = iteration.newton(
-            system.data, system.load, z, settings, iteration.NO_BORDER, 0.0, iteration.NO_STEP
-        )
+        out = iteration.solve_system(system, z, settings)
         zn, r, status = out[0], out[1], int(out[5])
         converged = status == Status.CONVERGED.value
         if bias is None:
