@@ -36,9 +36,11 @@ from biplan.model.params import Load, ModelParams
 from biplan.model.potential import energy, load_height
 from biplan.solvers import dynamics
 from biplan.solvers.core_settings import Status
-from biplan.solvers.step_loop import CHUNK_STEPS, coefficients
+from biplan.solvers.step_loop import CHUNK_STEPS
 from biplan.solvers.strategies import damped
 from biplan.solvers.trajectory_results import TrajectoryStatus
+
+__all__ = ["chunk", "integrate", "kinetic_energy", "run", "step"]
 
 Array = Any
 
@@ -256,6 +258,3 @@ def integrate(monkeypatch: Any, *args: Any, **kwargs: Any) -> biplan.Trajectory:
     with monkeypatch.context() as patch:
         patch.setattr(dynamics, "_run_system", run)
         return biplan.integrate(*args, **kwargs)
-
-
-__all__ = ["CHUNK_STEPS", "chunk", "coefficients", "integrate", "kinetic_energy", "run"]
