@@ -37,9 +37,9 @@ import numpy as np
 import biplan
 if {oracle}:
     from biplan.model import lagrangian, oracle as _oracle
-    from biplan.solvers import observe, _dynkernel
+    from biplan.solvers import observe
     from biplan.analysis.maps import design_map
-    for mod in (lagrangian, _dynkernel, design_map):
+    for mod in (lagrangian, design_map):
         for name in ("residual", "kkt_jacobian"):
             if hasattr(mod, name):
                 setattr(mod, name, getattr(_oracle, name))

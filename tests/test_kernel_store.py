@@ -93,7 +93,7 @@ def test_the_fingerprint_covers_every_module_of_the_package(tmp_path, monkeypatc
     _kernels._source_fingerprint.cache_clear()
     try:
         before = _kernels._source_fingerprint()
-        solver = copy / "solvers" / "_dynkernel.py"
+        solver = copy / "solvers" / "dynamics.py"
         solver.write_text(solver.read_text() + "\n# edited\n")
         _kernels._source_fingerprint.cache_clear()
         assert _kernels._source_fingerprint() != before

@@ -10,13 +10,12 @@ static options; the tolerances and limits are traced
 * :func:`iterate` — the whole solve as one ``lax.while_loop`` (equilibrium, relaxation
   polish, design-map load steps, the path corrector and the time step with
   ``levenberg_marquardt=False``, deflated solves);
-* :mod:`biplan.solvers.strategies` — the damped Newton of the path corrector and the time
-  step, and a chord (modified Newton) start.
+* :mod:`biplan.solvers.strategies` — the damped Newton of the path corrector, and a chord
+  (modified Newton) start.
 
 The systems differ only in their residual: the KKT system of the model
 (:func:`biplan.solvers.newton.newton_machine`), the bordered arclength system
-(:mod:`biplan.solvers._pathkernel`), the time step's dynamic residual
-(:mod:`biplan.solvers._dynkernel`) and the deflated system
+(:mod:`biplan.solvers._pathkernel`) and the deflated system
 (:mod:`biplan.analysis.states.deflation`).
 """
 

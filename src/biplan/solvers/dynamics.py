@@ -5,19 +5,18 @@ The constrained equations of motion (SI Eq. governing, in Lagrangian form, MODEL
     M(q) q̈ + c(q, q̇) + α_R M q̇ + ∇Π − ∇W_ext + Gᵀλ − Cᵀλ_∂ = 0,   g(q) = 0,   φ_SFB = 0
 
 are integrated by the generalized-α method (:class:`GeneralizedAlpha`, MODEL CHOICE D3) with
-the mass matrix of :mod:`biplan.model.inertia` (surface density μ = ``tube.surface_density``).
-Rayleigh damping D = α_R M is optional (CHOICE D2; the paper states none). The load follows a
-piecewise-linear :class:`LoadHistory` of force, displacement or pressure — by default the
-paper's ramp F(t) = 0.8 N/s · t for 0 ≤ t ≤ 2 s.
+the mass matrix of :mod:`biplan.model.system.inertia` (surface density μ =
+``tube.surface_density``). Rayleigh damping D = α_R M is optional (CHOICE D2; the paper states
+none). The load follows a piecewise-linear :class:`LoadHistory` of force, displacement or
+pressure — by default the paper's ramp F(t) = 0.8 N/s · t for 0 ≤ t ≤ 2 s.
 
 Step size: fixed, ``time_step``; a step whose Newton iteration fails is retried with the step
 halved (up to ``max_halvings`` times) from the last converged state, and the nominal step is
 resumed after the retried stretch. Every retry is counted in ``Trajectory.stats``.
 
-Where the model's chain readings are covered (:meth:`Model.system`), the whole step loop,
-retries included, runs in one compiled call (:mod:`biplan.solvers.step_loop`, the inertia of
-:mod:`biplan.model.system.inertia`); other readings use the JAX kernels
-(:mod:`biplan.solvers._dynkernel`) chunk by chunk. Both take the same steps.
+The whole step loop, retries included, runs in one compiled call on the model's
+:class:`~biplan.model.system.System` (:mod:`biplan.solvers.step_loop`, the inertia of
+:mod:`biplan.model.system.inertia`, under every chain reading).
 
 Energy bookkeeping: kinetic T, strain Π, external work W = ∫ F dz_p (trapezoidal) and Rayleigh
 dissipation D = Σ Δqᵀ α_R M q̇_{n+1} (the work of the damping force as the scheme applies
@@ -27,14 +26,11 @@ scheme's numerical dissipation (none for ρ∞ = 1, to O(h²)).
 
 from __future__ import annotations
 
-import functools
 from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
 
-from biplan._compile.kernel import Kernel
-from biplan._compile.setup import jax, jnp
 from biplan._errors import (
     ConfigError,
     ConvergenceError,
@@ -43,10 +39,8 @@ from biplan._errors import (
     check_range,
 )
 from biplan.model.assembly import Load, Model
-from biplan.model.inertia import mass_matrix
 from biplan.model.system import System, assemble, chainterm
 from biplan.model.system import inertia as system_inertia
-from biplan.solvers import _dynkernel as dk
 from biplan.solvers import observation, step_loop
 from biplan.solvers.control import Control, ControlKind
 from biplan.solvers.newton import Solution, relaxed_reference
@@ -54,6 +48,9 @@ from biplan.solvers.results import observables
 from biplan.solvers.trajectory_results import Trajectory, TrajectoryStats, TrajectoryStatus
 
 __all__ = ["BackwardEuler", "GeneralizedAlpha", "LoadHistory", "integrate", "mass_matrix_at"]
+
+#: Breakpoints of a load history (padded).
+HISTORY_POINTS = 16
 
 
 @dataclass(frozen=True)
@@ -111,7 +108,7 @@ class GeneralizedAlpha:
 
     def coefficients(self) -> tuple[float, float, float, float]:
         """(α_m, α_f, γ, β) of the method (Chung & Hulbert)."""
-        return tuple(float(c) for c in dk.coefficients(self.spectral_radius))  # type: ignore[return-value]
+        return tuple(float(c) for c in step_loop.coefficients(self.spectral_radius))  # type: ignore[return-value]
 
     def describe(self) -> str:
         return (
@@ -157,11 +154,11 @@ class LoadHistory:
             object.__setattr__(self, "kind", Control(self.kind, 0.0).kind)
         t = np.asarray(self.times, dtype=float)
         v = np.asarray(self.values, dtype=float)
-        if t.ndim != 1 or t.shape != v.shape or not 1 <= t.size <= dk.HISTORY_POINTS:
+        if t.ndim != 1 or t.shape != v.shape or not 1 <= t.size <= HISTORY_POINTS:
             raise ConfigError(
                 "load.times/values",
                 (t.size, v.size),
-                f"equal lengths between 1 and {dk.HISTORY_POINTS}",
+                f"equal lengths between 1 and {HISTORY_POINTS}",
             )
         if not (np.all(np.isfinite(t)) and np.all(np.isfinite(v))):
             raise ConfigError("load.times/values", "non-finite", "finite numbers")
@@ -187,7 +184,7 @@ class LoadHistory:
     def padded(self) -> tuple[np.ndarray, np.ndarray]:
         t = np.asarray(self.times, dtype=float)
         v = np.asarray(self.values, dtype=float)
-        pad = dk.HISTORY_POINTS - t.size
+        pad = HISTORY_POINTS - t.size
         last = t[-1]
         return (
             np.concatenate([t, last + 1.0 + np.arange(pad)]),
@@ -195,44 +192,12 @@ class LoadHistory:
         )
 
 
-#: :func:`biplan.model.inertia.mass_matrix` as a kernel (``_mass.compiled(layout)``).
-_mass = Kernel(mass_matrix, "mass_matrix")
-
-
 def mass_matrix_at(model: Model, q: np.ndarray) -> np.ndarray:
     """M(q) (n_q, n_q) of ``model`` [t·mm² per unit² of q] (SI governing equations)."""
     q = np.asarray(q, dtype=float)
     if q.shape != (model.n_coordinates,):
         raise ConfigError("q", q.shape, f"shape ({model.n_coordinates},)")
-    system = model.system()
-    if system is not None and system.element_frames:
-        return system_inertia.mass_matrix(system.data, q, float(model.tube.surface_density))
-    m = _mass.compiled(model.layout)(model.params, jnp.asarray(q), model.tube.surface_density)
-    return np.asarray(m)
-
-
-def _initial_state(model: Model, z0: np.ndarray, v0: np.ndarray, load: Load) -> dk.DynState:
-    """Consistent initial acceleration: [[M, Aᵀ], [A, 0]] [q̈; ν] = [−f(q0); 0] with A the
-    guides and the closed contacts (v0 assumed tangent to them)."""
-    nq = model.n_coordinates
-    q0 = z0[:nq]
-    r = model.residual(model.pack(q0), load)[:nq]  # ∇Π − F∇z_p (no multipliers)
-    m = mass_matrix_at(model, q0)
-    gaps = model.contact_gaps(q0)
-    a = np.concatenate([model.constraint_jacobian(q0), model.contact_jacobian(q0)[gaps < 1e-8]])
-    if load.is_displacement_controlled:
-        a = np.concatenate([a, model.load_gradient(q0)[None, :]])
-    k = a.shape[0]
-    mat = np.block([[m, a.T], [a, np.zeros((k, k))]])
-    sol = np.linalg.lstsq(mat, np.concatenate([-r, np.zeros(k)]), rcond=None)[0]
-    qdd = sol[:nq]
-    force = -z0[-1] if load.is_displacement_controlled else float(load.force)
-    # strongly typed float64 leaves, as the chunk returns them: a weakly typed Python-float
-    # leaf (``jnp.asarray(1.0)``) would make the second chunk call retrace and recompile
-    f64 = functools.partial(jnp.asarray, dtype=jnp.float64)
-    return dk.DynState(
-        f64(z0), f64(v0), f64(qdd), f64(qdd), f64(force), f64(model.load_displacement(q0))
-    )
+    return system_inertia.mass_matrix(model.system().data, q, float(model.tube.surface_density))
 
 
 def integrate(
@@ -307,9 +272,7 @@ def integrate(
         ]
     )
     load0 = _load_at(ctl, load.value(0.0))
-    system = model.system()
-    run = _run_system if system is not None and system.element_frames else _run_jax
-    ts, zs, vs, kins, its, diss, rejected, status = run(
+    ts, zs, vs, kins, its, diss, rejected, status = _run_system(
         model, z0, v, load0, ctl, times, values, settings, scheme, t_end
     )
     z_all = np.asarray(zs)
@@ -318,12 +281,8 @@ def integrate(
     t_all = np.asarray(ts)
     load_parameter = load.value(t_all)
     loads = _load_at(ctl, load_parameter)
-    if run is _run_system:
-        obs = observation.observe(system, z_all, loads, model.options.weak_contacts_active)
-    else:  # the JAX trajectory is observed by the JAX kernels
-        from biplan.solvers.observe import observe_batch
-
-        obs = observe_batch(model.layout, model.params, z_all, loads)
+    weak = model.options.weak_contacts_active
+    obs = observation.observe(model.system(), z_all, loads, weak)
     kinetic = np.asarray(kins)
     force, zp = np.asarray(obs.force), np.asarray(obs.displacement)
     work = np.concatenate([[0.0], np.cumsum(0.5 * (force[1:] + force[:-1]) * np.diff(zp))])
@@ -363,68 +322,9 @@ def integrate(
     return trajectory
 
 
-#: What both step loops return: t, z, v, T, Newton steps and dissipated energy per step (lists
+#: What the step loop returns: t, z, v, T, Newton steps and dissipated energy per step (lists
 #: or arrays, the start first), the number of rejected chunks and the status.
 _Run = tuple[Any, Any, Any, Any, Any, Any, int, TrajectoryStatus]
-
-
-def _run_jax(
-    model: Model,
-    z0: np.ndarray,
-    v: np.ndarray,
-    load0: Load,
-    ctl: np.ndarray,
-    times: np.ndarray,
-    values: np.ndarray,
-    settings: np.ndarray,
-    scheme: GeneralizedAlpha,
-    t_end: float,
-) -> _Run:
-    """The step loop of the JAX kernels: compiled chunks (:func:`_dynkernel.chunk`), retried
-    with smaller steps from Python."""
-    nq = model.n_coordinates
-    state = _initial_state(model, z0, v, load0)
-    run = dk.chunk.compiled(model.layout)
-    args = (jnp.asarray(ctl), jnp.asarray(times), jnp.asarray(values), jnp.asarray(settings))
-    kin0 = float(
-        dk.kinetic_energy.compiled(model.layout)(
-            model.params, jnp.asarray(z0[:nq]), jnp.asarray(v), model.tube.surface_density
-        )
-    )
-
-    ts, zs, vs, kins, its, diss = [0.0], [np.asarray(z0)], [v], [kin0], [0], [0.0]
-    t, h0 = 0.0, scheme.time_step
-    halvings, rejected, status = 0, 0, TrajectoryStatus.COMPLETED
-    while t < t_end * (1 - 1e-12):
-        h = h0 * 0.5**halvings
-        grid = t + h * np.arange(1, dk.CHUNK_STEPS + 1)
-        grid = np.minimum(grid, t_end)
-        states, ok, n_it, kin, dis = run(
-            model.params, state, jnp.asarray(t, dtype=jnp.float64), jnp.asarray(grid), *args
-        )
-        ok = np.asarray(ok)
-        n_ok = int(np.argmin(ok)) if not ok.all() else ok.size
-        # steps that land exactly on t_end repeat it: keep the first only
-        n_keep = min(n_ok, int(np.searchsorted(grid, t_end, side="left")) + 1)
-        if n_keep:
-            zs_c = np.asarray(states.z)[:n_keep]
-            zs.extend(zs_c)
-            vs.extend(np.asarray(states.v)[:n_keep])
-            kins.extend(np.asarray(kin)[:n_keep])
-            its.extend(np.asarray(n_it)[:n_keep])
-            diss.extend(np.asarray(dis)[:n_keep])
-            ts.extend(grid[:n_keep])
-            state = jax.tree_util.tree_map(lambda a, k=n_keep: a[k - 1], states)
-            t = float(grid[n_keep - 1])
-        if n_ok < ok.size and t < t_end * (1 - 1e-12):
-            rejected += 1
-            if halvings >= scheme.max_halvings:
-                status = TrajectoryStatus.STEP_FAILED
-                break
-            halvings += 1
-        elif halvings:
-            halvings -= 1
-    return ts, zs, vs, kins, its, diss, rejected, status
 
 
 def _run_system(
@@ -442,7 +342,6 @@ def _run_system(
     """The step loop of the compiled system: the whole trajectory, retries included, in one
     call of :func:`step_loop.trajectory`."""
     system = model.system()
-    assert system is not None
     d = system.data
     mu = float(model.tube.surface_density)
     qdd0, force0 = _initial_acceleration(system, z0, v, load0, mu)
@@ -479,7 +378,9 @@ def _run_system(
 def _initial_acceleration(
     system: System, z0: np.ndarray, v0: np.ndarray, load: Load, surface_density: float
 ) -> tuple[np.ndarray, float]:
-    """(q̈0, F0) of :func:`_initial_state` from the compiled system."""
+    """(q̈0, F0): the consistent initial acceleration, [[M, Aᵀ], [A, 0]] [q̈; ν] = [−f(q0); 0]
+    with A the guides and the closed contacts (v0 assumed tangent to them), and the end
+    force."""
     n_q, n_g, n_c = system.sizes
     d = system.data
     q0 = np.asarray(z0[:n_q], dtype=float)

@@ -1,6 +1,6 @@
 """The compiled time-step loop: generalized-α steps of a whole trajectory in one Numba call
-(MODEL §13, CHOICE D3; the port of :mod:`biplan.solvers._dynkernel` and of the chunk and retry
-loop of :func:`biplan.solvers.dynamics.integrate`).
+(MODEL §13, CHOICE D3; the loop of :func:`biplan.solvers.dynamics.integrate`, under every
+chain reading).
 
 Per step the unknowns are z_{n+1} = [q, λ, λ_∂, μ] at t_{n+1}; with the Newmark relations::
 
@@ -11,11 +11,11 @@ Per step the unknowns are z_{n+1} = [q, λ, λ_∂, μ] at t_{n+1}; with the New
 the residual is the static KKT residual (:func:`biplan.model.system.assemble.evaluate`) at
 t_{n+1} plus the inertia and Rayleigh forces M(q)(q̈ + α_R q̇) + c(q, q̇) in the q rows
 (:func:`biplan.model.system.inertia.add_inertia`), and its Jacobian the static KKT Jacobian
-plus the exact derivative of the inertia rows (as the JAX kernel's autodiff: ∂M/∂q and the
-derivative of the velocity-quadratic force included; dropping them, a modified Newton, fails
-in violent snaps). The iteration is :func:`biplan.solvers.iteration.newton` on that system,
-as the plain damped Newton of the time step (Armijo c = 1e-4, 12 halvings, no
-Levenberg–Marquardt fallback).
+plus the exact derivative of the inertia rows (as the JAX model's autodiff, the tests'
+oracle: ∂M/∂q and the derivative of the velocity-quadratic force included; dropping them, a
+modified Newton, fails in violent snaps). The iteration is
+:func:`biplan.solvers.iteration.newton` on that system, as the plain damped Newton of the time
+step (Armijo c = 1e-4, 12 halvings, no Levenberg–Marquardt fallback).
 
 :func:`trajectory` runs the driver's chunks of :data:`CHUNK_STEPS` steps: a failed step (no
 convergence, a non-finite state, or energy created by the step, see :func:`step`) freezes the
@@ -36,7 +36,7 @@ from biplan.solvers.iteration import NO_BORDER, newton
 
 __all__ = ["CHUNK_STEPS", "COMPLETED", "STEP_FAILED", "step", "trajectory"]
 
-#: Time steps per chunk (as :data:`biplan.solvers._dynkernel.CHUNK_STEPS`).
+#: Time steps per chunk.
 CHUNK_STEPS = 32
 #: Step halvings of the Newton line search (smallest step fraction 2⁻¹²).
 DAMPED_BACKTRACKS = 12
@@ -80,8 +80,8 @@ def step(
     """One generalized-α step from the state (z_n, v_n, a_n, q̈_n, scalars_n) to ``t_next``
     (= t_n + h); scalars = (F [N], z_p [mm], T [N·mm], Π [N·mm]) of the state.
 
-    ``settings = [α_m, α_f, γ, β, α_R, μ_surface, atol, max_iterations, energy_tol]``
-    (:func:`biplan.solvers._dynkernel.step`). A converged step is still rejected when it
+    ``settings = [α_m, α_f, γ, β, α_R, μ_surface, atol, max_iterations, energy_tol]``.
+    A converged step is still rejected when it
     creates energy: T + Π − W + D may not grow by more than ``energy_tol`` plus 10 % of the
     energy the step moves (|ΔW| + |ΔD| + |ΔT|).
 

@@ -80,13 +80,6 @@ class System:
         scalars[3:6] = smoothing, compliance, smooth_min_width
         return System(self.data._replace(scalars=scalars), self.load)
 
-    @property
-    def element_frames(self) -> bool:
-        """Whether the module frames follow the default chain (R1 ``EXACT``, R3 ``ELEMENT``):
-        the frames the compiled inertia composes (the dynamics under the other readings use
-        the JAX model)."""
-        return bool(self.data.flags[2] == 0 and self.data.flags[3] == 0)
-
     def at(self, force: float = 0.0, displacement: float = 0.0, control: float = 0.0) -> System:
         """The same tube at another load."""
         return System(self.data, np.array([force, displacement, control], dtype=float))

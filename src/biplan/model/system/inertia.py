@@ -2,31 +2,34 @@
 
 The compiled counterpart of :mod:`biplan.model.inertia`: the same quadrature (the edge
 midpoints p_k of the triangles ABC, ACD and EFG of every module, weights w_k = μ A_tri / 3),
-with the derivatives written by hand through the chain of module frames (:mod:`.chainterm`).
-Module m's nodes sit at R(θ_m) X(x_m) + P_m in the global plane, the frame (θ_m, P_m) composed
-from the increments y_c = (α_c, t_c) of the connectors below m::
+with the derivatives written by hand through the chain of module frames (:mod:`.inertia_chain`,
+:mod:`.increments`), under every chain reading. Module m's nodes sit at R(θ_m) X(x_m) + P_m in
+the global plane, the frame (θ_m, P_m) composed from the increments y_c = (α_c, t_c) of the
+connectors below m::
 
     θ_up = θ_lo + α_c,   P_up = P_lo + R(θ_lo) t_c
 
-(module 0's frame is the identity without a base connector; the base connector's increment is
-a pure translation). :func:`quadrature` gives the points, their Jacobians (with J = [[0, −1],
-[1, 0]], ∂R/∂θ = J R: ∂p/∂α_c = J (p − P_up(c)), ∂p/∂t_c = R(θ_lo(c)), ∂p/∂X = R(θ_m)) and
-their velocity-quadratic terms (∂²p)[v, v] (along q + s v, α_c linear in q:
-d²/ds² [R(θ) t] = −θ̇² R t + 2 θ̇ J R ṫ + R ẗ, summed up the chain).
+(module 0's frame is the identity without a base connector). :func:`quadrature` gives the
+points, their Jacobians (with J = [[0, −1], [1, 0]], ∂R/∂θ = J R: ∂p/∂x_c = ∇α_c J (p − P_up)
++ R(θ_lo) ∂t_c, ∂p/∂X = R(θ_m)) and their velocity-quadratic terms (∂²p)[v, v] (along q + s v:
+d²/ds² [R(θ) t] = −θ̇² R t + θ̈ J R t + 2 θ̇ J R ṫ + R ẗ, summed up the chain, with θ̈ =
+Σ vᵀ∂²α v; α_c is linear in q on the default chain, not under R3 ``EDGE_FIT``).
 
 The sums over the points are evaluated in their rigid-body form (an algebraic identity, not an
 approximation): the points of element e of module m sit at c_b + R(Θ_b) ρ_k with c_b their
-weighted centre, Θ_b = θ_m + φ_e linear in q (gradient g_b), Σ w_k ρ_k = 0 and J ρ ⊥ ρ, so::
+weighted centre, Θ_b = θ_m + φ_e (gradient g_b(q), ∇²Θ_b = Σ_c ∇²α_c), Σ w_k ρ_k = 0 and
+J ρ ⊥ ρ, so::
 
     M(q) = Σ_k w_k J_kᵀ J_k = Σ_b m_b J_cᵀ J_c + I_b g_b g_bᵀ
-    M q̈ + c(q, q̇) = Σ_k w_k J_kᵀ (J_k q̈ + (∂²p_k)[q̇, q̇]) = Σ_b m_b J_cᵀ c̈_b + I_b g_b (g_b·q̈)
+    M q̈ + c(q, q̇) = Σ_k w_k J_kᵀ (J_k q̈ + (∂²p_k)[q̇, q̇]) = Σ_b m_b J_cᵀ c̈_b + I_b g_b Θ̈_b
     T = ½ q̇ᵀ M q̇
 
-with m_b, I_b the mass and polar moment of the body's points (:func:`bodies`) and
-c̈_b = J_c q̈ + (∂²c_b)[q̇, q̇]. A centre is c_b = Σ_j R(θ_j) t_j over the terms of its chain
-(the connectors below the module, then the centre's own offset in the module frame), so the
-exact derivative of the inertia rows of a step (:func:`add_inertia`: q̇ and q̈ affine in q)
-needs the increments up to their third derivatives (:func:`increment3`, :func:`line_height3`).
+with m_b, I_b the mass and polar moment of the body's points (:func:`bodies`),
+c̈_b = J_c q̈ + (∂²c_b)[q̇, q̇] and Θ̈_b = g_b·q̈ + q̇ᵀ ∇²Θ_b q̇. A centre is
+c_b = Σ_j R(θ_j) t_j over the terms of its chain (the connectors below the module, then the
+centre's own offset in the module frame), so the exact derivative of the inertia rows of a
+step (:func:`add_inertia`: q̇ and q̈ affine in q) needs the increments up to their third
+derivatives (:func:`.increments.increment3`).
 """
 
 from __future__ import annotations
@@ -36,8 +39,10 @@ import math
 import numpy as np
 from numba import njit
 
-from biplan.model.system.chainterm import _dofs, _increment
+from biplan.model.system.chainterm import _dofs
 from biplan.model.system.elements import node
+from biplan.model.system.increments import increment3
+from biplan.model.system.inertia_chain import centre_hessian, curved_rows, path, terms
 from biplan.model.system.tables import SystemData
 
 __all__ = [
@@ -96,43 +101,58 @@ def quadrature(d: SystemData, q: np.ndarray, v: np.ndarray, jacobian: bool) -> t
     theta = np.zeros(n)
     pos = np.zeros((n, 2))
     th_dot = np.zeros(n)
+    th_dd = np.zeros(n)
     pos_dd = np.zeros((n, 2))
     jacs = np.zeros((nc, 3, 7))
     dofs = np.zeros((nc, 7), dtype=np.int64)
     th_lo = np.zeros(nc)
     x = np.zeros(7)
     vx = np.zeros(7)
+    ha = np.zeros((7, 7))
+    avv, tvv, work = np.zeros(7), np.zeros((2, 7)), np.zeros((3, 7))
+    t = np.zeros(2)
+    hess = np.zeros((2, 7, 7))
     for c in range(nc):  # connectors run up the chain: the lower frame is already known
         dofs[c] = _dofs(d, c)
         for k in range(7):
             x[k] = 0.0 if dofs[c, k] < 0 else q[dofs[c, k]]
             vx[k] = 0.0 if dofs[c, k] < 0 else v[dofs[c, k]]
-        alpha, tz, ts, jac, hess = _increment(x, d, c, True)
-        jacs[c] = jac
+        jac = jacs[c]
+        jac[:, :] = 0.0
+        ha[:, :] = 0.0
+        hess[:, :, :] = 0.0
+        t[:] = 0.0
+        avv[:] = 0.0
+        tvv[:, :] = 0.0
+        alpha = increment3(x, vx, d, c, jac[0], ha, avv, t, jac[1:], hess, tvv, work)
+        tz, ts = t[0], t[1]
         lo, up = d.conn_lower[c], d.conn_upper[c]
-        t0, pz, ps, w0, az, as_ = 0.0, 0.0, 0.0, 0.0, 0.0, 0.0
+        t0, pz, ps = 0.0, 0.0, 0.0
+        w0, b0, az, as_ = 0.0, 0.0, 0.0, 0.0
         if lo >= 0:
             t0, pz, ps = theta[lo], pos[lo, 0], pos[lo, 1]
-            w0, az, as_ = th_dot[lo], pos_dd[lo, 0], pos_dd[lo, 1]
+            w0, b0, az, as_ = th_dot[lo], th_dd[lo], pos_dd[lo, 0], pos_dd[lo, 1]
         th_lo[c] = t0
         ct, st = math.cos(t0), math.sin(t0)
-        a_dot = 0.0
+        a_dot, a_dd = 0.0, 0.0
         tz_dot, ts_dot, tz_dd, ts_dd = 0.0, 0.0, 0.0, 0.0
         for i in range(7):
             a_dot += jac[0, i] * vx[i]
             tz_dot += jac[1, i] * vx[i]
             ts_dot += jac[2, i] * vx[i]
             for j in range(7):
-                tz_dd += hess[1, i, j] * vx[i] * vx[j]
-                ts_dd += hess[2, i, j] * vx[i] * vx[j]
+                a_dd += ha[i, j] * vx[i] * vx[j]
+                tz_dd += hess[0, i, j] * vx[i] * vx[j]
+                ts_dd += hess[1, i, j] * vx[i] * vx[j]
         theta[up] = t0 + alpha
         th_dot[up] = w0 + a_dot
+        th_dd[up] = b0 + a_dd
         rz, rs = ct * tz - st * ts, st * tz + ct * ts  # R t
         rdz, rds = ct * tz_dot - st * ts_dot, st * tz_dot + ct * ts_dot  # R ṫ
         pos[up, 0], pos[up, 1] = pz + rz, ps + rs
-        # −θ̇² R t + 2 θ̇ J R ṫ + R ẗ  (J (a, b) = (−b, a))
-        pos_dd[up, 0] = az - w0 * w0 * rz - 2.0 * w0 * rds + ct * tz_dd - st * ts_dd
-        pos_dd[up, 1] = as_ - w0 * w0 * rs + 2.0 * w0 * rdz + st * tz_dd + ct * ts_dd
+        # −θ̇² R t + θ̈ J R t + 2 θ̇ J R ṫ + R ẗ  (J (a, b) = (−b, a))
+        pos_dd[up, 0] = az - w0 * w0 * rz - b0 * rs - 2.0 * w0 * rds + ct * tz_dd - st * ts_dd
+        pos_dd[up, 1] = as_ - w0 * w0 * rs + b0 * rz + 2.0 * w0 * rdz + st * tz_dd + ct * ts_dd
     parent = _parents(d)
     k_all = 9 * n
     pts = np.zeros((k_all, 2))
@@ -142,7 +162,7 @@ def quadrature(d: SystemData, q: np.ndarray, v: np.ndarray, jacobian: bool) -> t
         xm = q[3 * m : 3 * m + 3]
         vm = v[3 * m : 3 * m + 3]
         ct, st = math.cos(theta[m]), math.sin(theta[m])
-        w = th_dot[m]
+        w, wd = th_dot[m], th_dd[m]
         for e in range(9):
             i0, i1 = EDGES[e, 0], EDGES[e, 1]
             el = 0 if i0 < 4 else 1
@@ -159,8 +179,8 @@ def quadrature(d: SystemData, q: np.ndarray, v: np.ndarray, jacobian: bool) -> t
             k = 9 * m + e
             pz, ps = pos[m, 0] + rz, pos[m, 1] + rs
             pts[k, 0], pts[k, 1] = pz, ps
-            acc[k, 0] = pos_dd[m, 0] - w * w * rz - 2.0 * w * rds + ct * xddz - st * xdds
-            acc[k, 1] = pos_dd[m, 1] - w * w * rs + 2.0 * w * rdz + st * xddz + ct * xdds
+            acc[k, 0] = pos_dd[m, 0] - w * w * rz - wd * rs - 2.0 * w * rds + ct * xddz - st * xdds
+            acc[k, 1] = pos_dd[m, 1] - w * w * rs + wd * rz + 2.0 * w * rdz + st * xddz + ct * xdds
             if not jacobian:
                 continue
             jk = jac_out[k]
@@ -216,228 +236,6 @@ def bodies(d: SystemData, surface_density: float) -> tuple:  # type: ignore[type
 
 
 @njit(cache=True)
-def line_height3(
-    u: float, phi: float, pz: float, ps: float, z_edge: float, s: float
-) -> tuple[float, float, float, float]:
-    """:func:`biplan.model.system.elements.line_height` with its third derivative in φ:
-    (h, ∂h/∂φ, ∂²h/∂φ², ∂³h/∂φ³)."""
-    c, sn = math.cos(phi), math.sin(phi)
-    tn = sn / c
-    sec2 = 1.0 / (c * c)
-    dz, ds = z_edge - pz, -ps
-    p_z = c * dz - sn * ds + pz + u
-    p_s = sn * dz + c * ds + ps
-    dpz, d2pz = -sn * dz - c * ds, -c * dz + sn * ds
-    dps, d2ps = c * dz - sn * ds, -sn * dz - c * ds
-    r = s - p_s
-    h = p_z - r * tn
-    h1 = dpz + dps * tn - r * sec2
-    h2 = d2pz + d2ps * tn + 2.0 * dps * sec2 - 2.0 * r * sec2 * tn
-    h3 = (
-        -dpz
-        - dps * tn
-        + 3.0 * d2ps * sec2
-        + 6.0 * dps * sec2 * tn
-        - 2.0 * r * sec2 * (2.0 * tn * tn + sec2)
-    )
-    return h, h1, h2, h3
-
-
-@njit(cache=True)
-def _delta(
-    x: np.ndarray, d: SystemData, c: int, gd: np.ndarray, hd: np.ndarray, td: np.ndarray
-) -> float:
-    """Δ of connector c, the seam offset Δ = γ + z_L(0) − z_U(0) of
-    :func:`biplan.model.system.chainterm._increment`; fills ∇Δ (7,) and the diagonals of ∂²Δ
-    and ∂³Δ (7,)."""
-    ref, pitch = d.ref, d.scalars[0]
-    lo, up = d.conn_lower[c], d.conn_upper[c]
-    seam = d.conn_first_point[c]
-    gd[:] = 0.0
-    hd[:] = 0.0
-    td[:] = 0.0
-    eu = d.point_upper_element[seam]
-    pu = 0 if eu == 0 else 6
-    h, h1, h2, h3 = line_height3(x[3], x[4 + eu], ref[up, pu, 0], ref[up, pu, 1], 0.0, 0.0)
-    delta = x[6] - h
-    gd[3] -= 1.0
-    gd[4 + eu] -= h1
-    hd[4 + eu] -= h2
-    td[4 + eu] -= h3
-    gd[6] = 1.0
-    if d.point_rigid[seam]:
-        delta += d.point_height[seam]
-    else:
-        el = d.point_lower_element[seam]
-        pl = 0 if el == 0 else 6
-        h, h1, h2, h3 = line_height3(x[0], x[1 + el], ref[lo, pl, 0], ref[lo, pl, 1], pitch, 0.0)
-        delta += h
-        gd[0] += 1.0
-        gd[1 + el] += h1
-        hd[1 + el] += h2
-        td[1 + el] += h3
-    return delta
-
-
-@njit(cache=True)
-def increment3(x: np.ndarray, v: np.ndarray, d: SystemData, c: int) -> tuple:  # type: ignore[type-arg]
-    """Connector c's frame increment (α, t) with the derivatives of t up to the third:
-    (α, ∇α (7,), t (2,), ∂t/∂x (2, 7), ∂²t/∂x² (2, 7, 7), ∂/∂x of vᵀ(∂²t)v (2, 7)) at the
-    local coordinates x and velocity v (7,). t = P + [x_0, 0] + R(α)(Δ − P_z, −P_s) for a
-    module carried by the lower element (pivot P), t = (Δ, 0) otherwise."""
-    g = np.zeros(7)
-    t = np.zeros(2)
-    jt = np.zeros((2, 7))
-    ht = np.zeros((2, 7, 7))
-    tvv = np.zeros((2, 7))
-    work = np.zeros((3, 7))
-    alpha = _increment3(x, v, d, c, g, t, jt, ht, tvv, work)
-    return alpha, g, t, jt, ht, tvv
-
-
-@njit(cache=True)
-def _increment3(
-    x: np.ndarray,
-    v: np.ndarray,
-    d: SystemData,
-    c: int,
-    g: np.ndarray,
-    t: np.ndarray,
-    jt: np.ndarray,
-    ht: np.ndarray,
-    tvv: np.ndarray,
-    work: np.ndarray,
-) -> float:
-    """:func:`increment3` into zeroed arrays (``work``: (3, 7) scratch); returns α."""
-    gd, hd, td = work[0], work[1], work[2]
-    delta = _delta(x, d, c, gd, hd, td)
-    lo, e = d.conn_lower[c], d.conn_element[c]
-    if e < 0 or lo < 0:
-        t[0] = delta
-        for k in range(7):
-            jt[0, k] = gd[k]
-            ht[0, k, k] = hd[k]
-            tvv[0, k] = td[k] * v[k] * v[k]
-        return 0.0
-    ia = 1 + e
-    alpha = x[ia]
-    g[ia] = 1.0
-    pivot = 0 if e == 0 else 6
-    pz, ps = d.ref[lo, pivot, 0], d.ref[lo, pivot, 1]
-    ca, sa = math.cos(alpha), math.sin(alpha)
-    wz, ws = delta - pz, -ps
-    rwz, rws = ca * wz - sa * ws, sa * wz + ca * ws  # R w; J R w = (−rws, rwz)
-    t[0], t[1] = pz + x[0] + rwz, ps + rws
-    va = v[ia]
-    dot1, dot2 = 0.0, 0.0  # Δ̇ = ∇Δ·v, Δ̈ = vᵀ ∂²Δ v
-    for k in range(7):
-        dot1 += gd[k] * v[k]
-        dot2 += hd[k] * v[k] * v[k]
-    for k in range(7):
-        jt[0, k] = ca * gd[k]
-        jt[1, k] = sa * gd[k]
-        ht[0, k, k] += ca * hd[k]
-        ht[1, k, k] += sa * hd[k]
-        # J R (∂_k Δ, 0) in the mixed α rows
-        ht[0, ia, k] -= sa * gd[k]
-        ht[1, ia, k] += ca * gd[k]
-        ht[0, k, ia] -= sa * gd[k]
-        ht[1, k, ia] += ca * gd[k]
-        # −v_α² R (Δ_k, 0) + 2 v_α J R (Δ_kk v_k, 0) + R (Δ_kkk v_k², 0)
-        s1 = -va * va * gd[k] + td[k] * v[k] * v[k]
-        s2 = 2.0 * va * hd[k] * v[k]
-        tvv[0, k] = ca * s1 - sa * s2
-        tvv[1, k] = sa * s1 + ca * s2
-    jt[0, 0] += 1.0
-    jt[0, ia] -= rws
-    jt[1, ia] += rwz
-    ht[0, ia, ia] -= rwz
-    ht[1, ia, ia] -= rws
-    # α row: −v_α² J R w − 2 v_α R (Δ̇, 0) + J R (Δ̈, 0)
-    tvv[0, ia] += va * va * rws - 2.0 * va * ca * dot1 - sa * dot2
-    tvv[1, ia] += -va * va * rwz - 2.0 * va * sa * dot1 + ca * dot2
-    return alpha
-
-
-@njit(cache=True)
-def _terms(d: SystemData, q: np.ndarray, v: np.ndarray, centre: np.ndarray, third: bool) -> tuple:  # type: ignore[type-arg]
-    """The chain terms of every body centre c_b = Σ_j R(θ_j) t_j: the connectors' increments
-    (terms 0 … Nc − 1) and each body's translation in its module frame (term Nc + b),
-    t_b = R(φ_e)(X_b − P_e) + P_e + [u, 0]. Returns (dofs (n_t, 7), ∇α (n_t, 7), t (n_t, 2),
-    ∂t/∂x (n_t, 2, 7), ∂²t/∂x² (n_t, 2, 7, 7), ∂/∂x vᵀ(∂²t)v (n_t, 2, 7) (zeros unless
-    ``third``), the angle of the frame each term is rotated by, θ_j (n_t,), the angle of every
-    module θ_m (N,), and the parent connector of every module (N,))."""
-    n, nc = d.ref.shape[0], d.conn_upper.shape[0]
-    n_t = nc + 2 * n
-    dofs = np.full((n_t, 7), -1, dtype=np.int64)
-    g = np.zeros((n_t, 7))
-    t = np.zeros((n_t, 2))
-    jt = np.zeros((n_t, 2, 7))
-    ht = np.zeros((n_t, 2, 7, 7))
-    tvv = np.zeros((n_t, 2, 7))
-    th = np.zeros(n_t)
-    theta = np.zeros(n)
-    parent = np.full(n, -1, dtype=np.int64)
-    x = np.zeros(7)
-    vx = np.zeros(7)
-    work = np.zeros((3, 7))
-    for c in range(nc):  # connectors run up the chain: the lower frame is already known
-        lo, up = d.conn_lower[c], d.conn_upper[c]
-        parent[up] = c
-        for k in range(3):
-            dofs[c, k] = -1 if lo < 0 else 3 * lo + k
-            dofs[c, 3 + k] = 3 * up + k
-        dofs[c, 6] = 3 * n + c
-        for k in range(7):
-            x[k] = 0.0 if dofs[c, k] < 0 else q[dofs[c, k]]
-            vx[k] = 0.0 if dofs[c, k] < 0 else v[dofs[c, k]]
-        alpha = _increment3(x, vx, d, c, g[c], t[c], jt[c], ht[c], tvv[c], work)
-        th[c] = 0.0 if lo < 0 else theta[lo]
-        theta[up] = th[c] + alpha
-    for b in range(2 * n):
-        m, e = b // 2, b % 2
-        j = nc + b
-        for k in range(3):
-            dofs[j, k] = 3 * m + k
-        pivot = 0 if e == 0 else 6
-        pz, ps = d.ref[m, pivot, 0], d.ref[m, pivot, 1]
-        dz, ds = centre[b, 0] - pz, centre[b, 1] - ps
-        phi = q[3 * m + 1 + e]
-        cp, sp = math.cos(phi), math.sin(phi)
-        rz, rs = cp * dz - sp * ds, sp * dz + cp * ds
-        t[j, 0], t[j, 1] = rz + pz + q[3 * m], rs + ps
-        jt[j, 0, 0] = 1.0
-        jt[j, 0, 1 + e], jt[j, 1, 1 + e] = -rs, rz
-        ht[j, 0, 1 + e, 1 + e], ht[j, 1, 1 + e, 1 + e] = -rz, -rs
-        if third:
-            vp = v[3 * m + 1 + e]
-            tvv[j, 0, 1 + e], tvv[j, 1, 1 + e] = vp * vp * rs, -vp * vp * rz
-        th[j] = theta[m]
-    return dofs, g, t, jt, ht, tvv, th, theta, parent
-
-
-@njit(cache=True)
-def _path(parent: np.ndarray, d: SystemData, m: int, nc: int, b: int, out: np.ndarray) -> int:  # type: ignore[type-arg]
-    """The terms of body b of module m, bottom to top, into ``out``: the connectors below m,
-    then Nc + b; returns their number."""
-    count = 0
-    c = parent[m]
-    while c >= 0:
-        count += 1
-        lo = d.conn_lower[c]
-        c = parent[lo] if lo >= 0 else -1
-    out[count] = nc + b
-    size = count + 1
-    c = parent[m]
-    while c >= 0:
-        count -= 1
-        out[count] = c
-        lo = d.conn_lower[c]
-        c = parent[lo] if lo >= 0 else -1
-    return size
-
-
-@njit(cache=True)
 def _local(u: np.ndarray, dofs: np.ndarray, out: np.ndarray) -> None:  # type: ignore[type-arg]
     for k in range(7):
         out[k] = u[dofs[k]] if dofs[k] >= 0 else 0.0
@@ -454,29 +252,32 @@ def _inertia(
     c_m: float,
     mode: int,
 ) -> tuple:  # type: ignore[type-arg]
-    """The rigid-body form of the quadrature sums (module docstring of
-    :mod:`biplan.model.inertia`): with the body centres c_b and the body angles Θ_b = θ_m + φ_e
-    (linear in q, gradient g_b), Σ_k w_k J_kᵀ J_k = Σ_b m_b J_cᵀ J_c + I_b g_b g_bᵀ and
-    Σ_k w_k J_kᵀ (J_k a + (∂²p_k)[v, v]) = Σ_b m_b J_cᵀ c̈_b + I_b g_b (g_b·a), c̈_b =
-    J_c a + (∂²c_b)[v, v] (the offsets of the points from the centre have zero weighted mean,
-    and J ρ ⊥ ρ).
+    """The rigid-body form of the quadrature sums (module docstring): with the body centres
+    c_b and the body angles Θ_b = θ_m + φ_e (gradient g_b, ∇²Θ_b = Σ_c ∇²α_c over the
+    connectors below), Σ_k w_k J_kᵀ J_k = Σ_b m_b J_cᵀ J_c + I_b g_b g_bᵀ and
+    Σ_k w_k J_kᵀ (J_k a + (∂²p_k)[v, v]) = Σ_b m_b J_cᵀ c̈_b + I_b g_b Θ̈_b, c̈_b =
+    J_c a + (∂²c_b)[v, v], Θ̈_b = g_b·a + vᵀ∇²Θ_b v (the offsets of the points from the
+    centre have zero weighted mean, and J ρ ⊥ ρ).
 
     ``mode`` 0: (0, M (n_q, n_q)); 1: (F = M a + c(q, v), 0); 3: ([½ vᵀ M v, aᵀ M v], 0);
     2: (F, dF/dq) for v = v(q) and a = a(q) affine in q, ∂v/∂q = c_v I, ∂a/∂q = c_M I: the
     exact derivative of the inertia rows of a step (third derivatives of the chain included)::
 
-        dF/dq = Σ_b m_b [∇²(λ_b·c_b) + J_cᵀ (∂c̈/∂q + c_v ∂c̈/∂q̇ + c_M J_c)] + c_M I_b g_b g_bᵀ
+        dF/dq = Σ_b m_b [∇²(λ_b·c_b) + J_cᵀ (∂c̈/∂q + c_v ∂c̈/∂q̇ + c_M J_c)]
+                + I_b [Θ̈_b ∇²Θ_b + g_b (∂Θ̈/∂q + c_v ∂Θ̈/∂q̇ + c_M g_b)ᵀ]
 
-    with λ_b = m_b c̈_b held fixed in the Hessian.
+    with λ_b = m_b c̈_b held fixed in the Hessian. Through a curved angle α_i (∇²α_i ≠ 0,
+    R3 ``EDGE_FIT``) c̈_b also moves with the rates of the frames above i: ∂θ̇/∂x_i = ∇²α_i v
+    and ∂θ̈/∂x_i = ∇²α_i a + ∂/∂x (vᵀ∇²α_i v) + 2 c_v ∇²α_i v.
     """
     n, nc, n_q = d.ref.shape[0], d.conn_upper.shape[0], d.sizes[0]
     mass, centre, moment = bodies(d, surface_density)
-    dofs, g, t, jt, ht, tvv, th, _, parent = _terms(d, q, v, centre, mode == 2)
+    dofs, g, ha, a_third, t, jt, ht, tvv, th, parent = terms(d, q, v, centre)
     n_t = t.shape[0]
     force = np.zeros(n_q)
     mat = np.zeros((n_q, n_q) if mode in (0, 2) else (0, 0))
     # per term: rates of its frame angle, ṫ, ẗ and, for the Jacobian, ∂ṫ/∂x = (∂²t)[v, ·]
-    # and (∂²t)[a, ·]
+    # and (∂²t)[a, ·]; per curved connector angle: ∇²α v, vᵀ∇²α v and ∂θ̈/∂x (``bend``)
     th_d = np.zeros(n_t)
     th_dd = np.zeros(n_t)
     mod_d = np.zeros(n)
@@ -484,7 +285,11 @@ def _inertia(
     t_d = np.zeros((n_t, 2))
     t_dd = np.zeros((n_t, 2))
     hv = np.zeros((n_t, 2, 7))
-    ha = np.zeros((n_t, 2, 7))
+    hav = np.zeros((n_t, 2, 7))
+    curved = np.zeros(n_t, dtype=np.bool_)
+    a_vv = np.zeros(n_t)
+    a_v = np.zeros((n_t, 7))  # ∇²α v
+    bend = np.zeros((n_t, 7))
     vx = np.zeros(7)
     ax = np.zeros(7)
     for j in range(n_t):
@@ -494,8 +299,18 @@ def _inertia(
             lo, up = d.conn_lower[j], d.conn_upper[j]
             th_d[j] = 0.0 if lo < 0 else mod_d[lo]
             th_dd[j] = 0.0 if lo < 0 else mod_dd[lo]
+            curved[j] = np.any(ha[j] != 0.0)
+            if curved[j]:
+                for k in range(7):
+                    sv, sa = 0.0, 0.0
+                    for i in range(7):
+                        sv += ha[j, k, i] * vx[i]
+                        sa += ha[j, k, i] * ax[i]
+                    a_v[j, k] = sv
+                    a_vv[j] += sv * vx[k]
+                    bend[j, k] = sa + a_third[j, k] + 2.0 * c_v * sv
             mod_d[up] = th_d[j] + g[j] @ vx
-            mod_dd[up] = th_dd[j] + g[j] @ ax
+            mod_dd[up] = th_dd[j] + g[j] @ ax + a_vv[j]
         else:
             m = (j - nc) // 2
             th_d[j], th_dd[j] = mod_d[m], mod_dd[m]
@@ -508,12 +323,12 @@ def _inertia(
                     sv += ht[j, r, i, k] * vx[i]
                     sa += ht[j, r, i, k] * ax[i]
                 hv[j, r, k] = sv
-                ha[j, r, k] = sa
+                hav[j, r, k] = sa
                 t_dd[j, r] += sv * vx[k]
     jc = np.zeros((2, n_q))
     dc = np.zeros((2, n_q))
     g_body = np.zeros(n_q)
-    path = np.zeros(nc + 1, dtype=np.int64)
+    chain = np.zeros(nc + 1, dtype=np.int64)
     rt = np.zeros((nc + 1, 2))
     tdd = np.zeros((nc + 1, 2))
     uu = np.zeros((nc + 1, 2))
@@ -522,10 +337,10 @@ def _inertia(
     suf_u = np.zeros((nc + 2, 2))
     for b in range(2 * n):
         m = b // 2
-        size = _path(parent, d, m, nc, b, path)
+        size = path(parent, d, m, nc, b, chain)
         # per term: R t, its second rate T̈ and ∂T̈/∂θ̇ = −2θ̇ R t + 2 J R ṫ; suffix sums
         for p in range(size):
-            j = path[p]
+            j = chain[p]
             cs, sn = math.cos(th[j]), math.sin(th[j])
             w, wd = th_d[j], th_dd[j]
             rtz, rts = cs * t[j, 0] - sn * t[j, 1], sn * t[j, 0] + cs * t[j, 1]
@@ -548,8 +363,10 @@ def _inertia(
         # J_c = Σ_j R_j ∂t_j/∂x + Σ_i ∇α_i ⊗ J S_i
         jc[:, :] = 0.0
         g_body[:] = 0.0
+        bent = False
         for p in range(size):
-            j = path[p]
+            j = chain[p]
+            bent = bent or curved[j]
             cs, sn = math.cos(th[j]), math.sin(th[j])
             sz, ss = suf[p + 1, 0], suf[p + 1, 1]
             for k in range(7):
@@ -574,14 +391,17 @@ def _inertia(
                     mat[i, k] += mb * (jc[0, i] * jc[0, k] + jc[1, i] * jc[1, k])
                     mat[i, k] += ib * g_body[i] * g_body[k]
             continue
+        theta_dd = ga  # Θ̈_b = g_b·a + Σ vᵀ∇²α v
+        for p in range(size - 1):
+            theta_dd += a_vv[chain[p]]
         for i in range(n_q):
-            force[i] += mb * (jc[0, i] * cdd0 + jc[1, i] * cdd1) + ib * g_body[i] * ga
+            force[i] += mb * (jc[0, i] * cdd0 + jc[1, i] * cdd1) + ib * g_body[i] * theta_dd
         if mode == 1:
             continue
         # ∂c̈/∂q + c_v ∂c̈/∂v + c_M J_c
         dc[:, :] = 0.0
         for p in range(size):
-            j = path[p]
+            j = chain[p]
             cs, sn = math.cos(th[j]), math.sin(th[j])
             w, wd = th_d[j], th_dd[j]
             for k in range(7):
@@ -594,7 +414,7 @@ def _inertia(
                     -wd * jt[j, 1, k]
                     - w * w * jt[j, 0, k]
                     - 2.0 * w * hv[j, 1, k]
-                    + ha[j, 0, k]
+                    + hav[j, 0, k]
                     + tvv[j, 0, k]
                     + c_v * (-2.0 * w * jt[j, 1, k] + 2.0 * hv[j, 0, k])
                 )
@@ -602,7 +422,7 @@ def _inertia(
                     wd * jt[j, 0, k]
                     - w * w * jt[j, 1, k]
                     + 2.0 * w * hv[j, 0, k]
-                    + ha[j, 1, k]
+                    + hav[j, 1, k]
                     + tvv[j, 1, k]
                     + c_v * (2.0 * w * jt[j, 0, k] + 2.0 * hv[j, 1, k])
                 )
@@ -611,6 +431,9 @@ def _inertia(
                 gs = suf_dd[p + 1, 0] + c_v * suf_u[p + 1, 1]
                 dc[0, col] += cs * lz - sn * ls + g[j, k] * gz
                 dc[1, col] += sn * lz + cs * ls + g[j, k] * gs
+                if curved[j]:  # the rates θ̇, θ̈ of the frames above: ∂T̈/∂θ̇ and J R t
+                    dc[0, col] += a_v[j, k] * suf_u[p + 1, 0] - bend[j, k] * suf[p + 1, 1]
+                    dc[1, col] += a_v[j, k] * suf_u[p + 1, 1] + bend[j, k] * suf[p + 1, 0]
         lam_z, lam_s = mb * cdd0, mb * cdd1
         for i in range(n_q):
             for k in range(n_q):
@@ -618,53 +441,10 @@ def _inertia(
                     jc[0, i] * (dc[0, k] + c_m * jc[0, k]) + jc[1, i] * (dc[1, k] + c_m * jc[1, k])
                 )
                 mat[i, k] += c_m * ib * g_body[i] * g_body[k]
-        # Hessian of λ·c_b, λ = m_b c̈_b
-        for p in range(size):
-            j = path[p]
-            cs, sn = math.cos(th[j]), math.sin(th[j])
-            # local: λ·R_j ∂²t_j
-            lr0 = cs * lam_z + sn * lam_s  # (R_jᵀ λ)
-            lr1 = -sn * lam_z + cs * lam_s
-            for k in range(7):
-                ck = dofs[j, k]
-                if ck < 0:
-                    continue
-                for l in range(7):
-                    cl = dofs[j, l]
-                    if cl >= 0:
-                        mat[ck, cl] += lr0 * ht[j, 0, k, l] + lr1 * ht[j, 1, k, l]
-            # α_i (i below j) with x_j: λ·J R_j ∂t_j ;  J R_j ∂t = R_j J ∂t
-            for pi in range(p):
-                i = path[pi]
-                for ki in range(7):
-                    gi = g[i, ki]
-                    if gi == 0.0 or dofs[i, ki] < 0:
-                        continue
-                    ci = dofs[i, ki]
-                    for k in range(7):
-                        ck = dofs[j, k]
-                        if ck < 0:
-                            continue
-                        val = gi * (lr0 * -jt[j, 1, k] + lr1 * jt[j, 0, k])
-                        mat[ci, ck] += val
-                        mat[ck, ci] += val
-            # α_i α_j: −λ·S_{max}
-            for ki in range(7):
-                gj = g[j, ki]
-                if gj == 0.0 or dofs[j, ki] < 0:
-                    continue
-                cj = dofs[j, ki]
-                for pi in range(p + 1):
-                    i = path[pi]
-                    for k2 in range(7):
-                        gi = g[i, k2]
-                        if gi == 0.0 or dofs[i, k2] < 0:
-                            continue
-                        ci = dofs[i, k2]
-                        val = -gi * gj * (lam_z * suf[p + 1, 0] + lam_s * suf[p + 1, 1])
-                        mat[ci, cj] += val
-                        if pi != p:
-                            mat[cj, ci] += val
+        if bent:
+            args = (ib, theta_dd, lam_z, lam_s)
+            curved_rows(chain, size, dofs, ha, bend, curved, g_body, args, suf, mat)
+        centre_hessian(chain, size, dofs, g, jt, ht, th, lam_z, lam_s, suf, mat)
     return force, mat
 
 
