@@ -18,7 +18,7 @@ import pytest
 
 import biplan
 from biplan._compile.setup import jax, jnp, kernel_options
-from biplan.analysis.modes import natural_modes, rayleigh_for_damping_ratio
+from biplan.analysis.modes import natural_modes, rayleigh_at, rayleigh_for_damping_ratio
 from biplan.analysis.response.ramp_dynamics import continue_ramp
 from biplan.model.assembly import Load
 from biplan.model.inertia import inertia_force
@@ -163,3 +163,17 @@ def test_bad_dynamics_inputs(model6):
         biplan.LoadHistory(ControlKind.FORCE, (0.0, 0.0), (0.0, 1.0))
     with pytest.raises(biplan.ConfigError, match="start"):
         biplan.integrate(model6, None, np.full(model6.n_coordinates, 0.3), t_end=0.1)
+
+
+def test_damping_probe_past_the_first_snap_is_halved():
+    """The fully bistable tube snaps at 0.49 N: the probe at half a 1.6 N ramp (0.8 N) has no
+    stable state on the reference's branch, so the probe is halved until one has (0.4 N), and
+    the damping equals the one probed there directly; a tube without any usable probe says
+    which loads were tried."""
+    model = biplan.Model(biplan.designs.fully_bistable())
+    ref = biplan.relaxed_reference(model, throw=True)
+    halved = rayleigh_at(model, ref, biplan.Load.of_force(0.8), 0.05)
+    direct = rayleigh_at(model, ref, biplan.Load.of_force(0.4), 0.05)
+    assert halved == direct > 0.0
+    with pytest.raises(biplan.ConfigError, match="probe load of the damping ratio"):
+        rayleigh_at(model, ref, biplan.Load.of_force(0.0), 0.05)  # contacts lock every mode

@@ -14,7 +14,7 @@ kernels call across modules (the Newton calls the assembly, which calls the elem
 
 Nothing else of Numba's configuration is touched: other packages' functions are cached as Numba
 decides. :func:`is_warm` tells whether the kernels of this install are compiled already (the
-first use after an install compiles them once, about a minute).
+first use after an install compiles them once, a few minutes).
 """
 
 from __future__ import annotations

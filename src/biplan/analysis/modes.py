@@ -21,6 +21,7 @@ from biplan.solvers.dynamics import mass_matrix_at
 from biplan.solvers.newton import Solution, solve_equilibrium
 
 __all__ = [
+    "PROBE_HALVINGS",
     "Modes",
     "check_damping_ratio",
     "natural_modes",
@@ -89,6 +90,11 @@ def rayleigh_for_damping_ratio(modes: Modes, ratio: float) -> float:
     return 2.0 * ratio * float(modes.angular_frequency[0])
 
 
+#: Halvings of a probe load that :func:`rayleigh_at` tries when the probe lies past the start
+#: branch's limit point (no converged, stable state there from the start).
+PROBE_HALVINGS = 4
+
+
 def rayleigh_at(model: Model, start: Solution, probe: Load, damping_ratio: float) -> float:
     """α_R [1/s] that gives the first natural mode of the equilibrium under ``probe`` the
     damping ratio ζ.
@@ -96,7 +102,11 @@ def rayleigh_at(model: Model, start: Solution, probe: Load, damping_ratio: float
     Every dynamic workflow (a force-controlled test's ramp after a snap, ``biplan respond
     --dynamic``, the demo's ramp) probes at half its largest load: on the start's branch,
     below the limit point, where a mode is free (in the unloaded tube every contact touches
-    and locks every mode).
+    and locks every mode). Where half the largest load is past the start branch's first limit
+    point (a tube that snaps early, e.g. the fully bistable one at 0.49 N under a 1.6 N
+    ramp), the Newton solve from the start finds no stable state there; the probe is then
+    halved again, at most :data:`PROBE_HALVINGS` times, and the first load that gives a
+    converged, stable state with a free mode is used.
 
     Parameters
     ----------
@@ -111,9 +121,22 @@ def rayleigh_at(model: Model, start: Solution, probe: Load, damping_ratio: float
     Raises
     ------
     ConfigError
-        If ζ is outside (0, 1), or the probe state is not converged, not stable or has no
-        free mode.
+        If ζ is outside (0, 1), or no probe load (``probe`` and its halvings) gives a
+        converged, stable state with a free mode; the message names the loads tried.
     """
     check_damping_ratio(damping_ratio)
-    state = solve_equilibrium(model, None, start, probe)
-    return rayleigh_for_damping_ratio(natural_modes(model, state), damping_ratio)
+    tried: list[str] = []
+    for k in range(PROBE_HALVINGS + 1):
+        scale = 0.5**k
+        load = Load(probe.force * scale, probe.displacement * scale, probe.displacement_control)
+        state = solve_equilibrium(model, None, start, load)
+        try:
+            return rayleigh_for_damping_ratio(natural_modes(model, state), damping_ratio)
+        except ConfigError as err:
+            value = float(load.displacement if load.displacement_control else load.force)
+            tried.append(f"{value:.4g} ({err.value})")
+    raise ConfigError(
+        "probe load of the damping ratio",
+        ", ".join(tried),
+        "a load with a converged, stable state and a free mode on the start's branch",
+    )

@@ -149,15 +149,15 @@ _ANNOUNCED: list[bool] = []
 
 def _announce_compile() -> None:
     """Say on the terminal, once per process, that this install's kernels are compiling
-    (:func:`biplan._compile.numba_cache.is_warm`): the first use after an install takes about
-    a minute, every later process loads them."""
+    (:func:`biplan._compile.numba_cache.is_warm`): the first use after an install takes a few
+    minutes (docs/performance.md, "One-time compile"), every later process loads them."""
     if _ANNOUNCED:
         return
     _ANNOUNCED.append(True)
     if not numba_cache.is_warm():
         print(
             "biplan: compiling the element kernels and solvers for this installation, once "
-            f"(about a minute; cached in {numba_cache.cache_dir()})",
+            f"(a few minutes; cached in {numba_cache.cache_dir()})",
             file=sys.stderr,
             flush=True,
         )
