@@ -39,7 +39,7 @@ def _tube(beta: float | None = None) -> Tube:
 
 
 @pytest.fixture(scope="module", params=[None, 50.0], ids=["semi-bistable", "beta-50"])
-def pulled(request: pytest.FixtureRequest) -> tuple[biplan.Model, biplan.Path]:
+def pulled(request: pytest.FixtureRequest) -> tuple[biplan.Model, biplan.EquilibriumPath]:
     model = biplan.Model(_tube(request.param))
     return model, load_response(model, biplan.Control.force(2.5))
 

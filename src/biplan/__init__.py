@@ -44,11 +44,11 @@ if TYPE_CHECKING:
     from biplan.options import ModelOptions as ModelOptions
     from biplan.solvers import ArcLength as ArcLength
     from biplan.solvers import Control as Control
+    from biplan.solvers import EquilibriumPath as EquilibriumPath
     from biplan.solvers import GeneralizedAlpha as GeneralizedAlpha
     from biplan.solvers import LoadHistory as LoadHistory
     from biplan.solvers import LoadStepping as LoadStepping
     from biplan.solvers import Newton as Newton
-    from biplan.solvers import Path as Path
     from biplan.solvers import PathStatus as PathStatus
     from biplan.solvers import Solution as Solution
     from biplan.solvers import Status as Status
@@ -90,7 +90,7 @@ _EXPORTS = {
     "LoadHistory": "biplan.solvers",
     "LoadStepping": "biplan.solvers",
     "Newton": "biplan.solvers",
-    "Path": "biplan.solvers",
+    "EquilibriumPath": "biplan.solvers",
     "PathStatus": "biplan.solvers",
     "Solution": "biplan.solvers",
     "Status": "biplan.solvers",
@@ -131,6 +131,7 @@ __all__ = [
     "ConvergenceError",
     "CostWarning",
     "Development",
+    "EquilibriumPath",
     "FoldRef",
     "GeneralizedAlpha",
     "LinearLaw",
@@ -140,7 +141,6 @@ __all__ = [
     "Model",
     "ModelOptions",
     "Newton",
-    "Path",
     "PathStatus",
     "Sensitivity",
     "Solution",

@@ -14,29 +14,31 @@ from biplan._errors import ConfigError
 from biplan.analysis.response.quasistatic import QuasiStaticPath
 from biplan.io.results import dataset, save_csv, save_netcdf, save_sweep_csv, sweep_dataset
 from biplan.model.assembly import Model
-from biplan.solvers.path_results import Path
+from biplan.solvers.path_results import EquilibriumPath
 from biplan.solvers.trajectory_results import Trajectory
 
 __all__ = ["save_response"]
 
 
 def save_response(
-    result: QuasiStaticPath | Path | Trajectory, stem: str | FilePath, model: Model | None = None
+    result: QuasiStaticPath | EquilibriumPath | Trajectory,
+    stem: str | FilePath,
+    model: Model | None = None,
 ) -> tuple[FilePath, FilePath]:
     """Write ``stem.nc`` (the labelled result, with the tube configuration) and ``stem.csv``
     (one row per step or time).
 
     Parameters
     ----------
-    result : QuasiStaticPath, Path or Trajectory
-    stem : str or Path
+    result : QuasiStaticPath, EquilibriumPath or Trajectory
+    stem : str or pathlib.Path
         The files' path without suffix; its folder must exist.
     model : Model, optional
         The model of a sweep (required for a ``QuasiStaticPath``, unused otherwise).
 
     Returns
     -------
-    tuple of Path
+    tuple of pathlib.Path
         The netCDF and the CSV file.
 
     Raises

@@ -1,6 +1,6 @@
 """Result files: labelled datasets of paths and trajectories in netCDF and CSV.
 
-* :func:`dataset` — a :class:`~biplan.solvers.path_results.Path` or
+* :func:`dataset` — a :class:`~biplan.solvers.path_results.EquilibriumPath` or
   :class:`~biplan.solvers.trajectory_results.Trajectory` as an ``xarray.Dataset`` whose
   attributes carry the tube's TOML configuration (``config``) so that the file re-opens as a
   model;
@@ -26,7 +26,7 @@ from biplan._errors import ConfigError
 from biplan.analysis.response.quasistatic import SWEEP_KIND, QuasiStaticPath
 from biplan.io.config import dump_config, load_config_text
 from biplan.model.assembly import Load, Model
-from biplan.solvers.path_results import Path
+from biplan.solvers.path_results import EquilibriumPath
 from biplan.solvers.results import ENERGY_BALANCE, RESPONSE_VARIABLES
 from biplan.solvers.trajectory_results import Trajectory
 
@@ -69,29 +69,29 @@ SWEEP_CSV_COLUMNS = (
 )  # fmt: skip
 
 
-def dataset(result: Path | Trajectory) -> Any:
+def dataset(result: EquilibriumPath | Trajectory) -> Any:
     """The labelled form of a result, with ``attrs["config"]`` = the tube's TOML text."""
-    if not isinstance(result, Path | Trajectory):
-        raise ConfigError("result", type(result).__name__, "a biplan Path or Trajectory")
+    if not isinstance(result, EquilibriumPath | Trajectory):
+        raise ConfigError("result", type(result).__name__, "a biplan EquilibriumPath or Trajectory")
     ds = result.to_dataset()
     ds.attrs["config"] = dump_config(result.model.tube)
     return ds
 
 
-def save_netcdf(result: Path | Trajectory | Any, path: str | FilePath) -> FilePath:
+def save_netcdf(result: EquilibriumPath | Trajectory | Any, path: str | FilePath) -> FilePath:
     """Write a result (or its dataset) to netCDF [h5netcdf engine]."""
-    ds = result if not isinstance(result, Path | Trajectory) else dataset(result)
+    ds = result if not isinstance(result, EquilibriumPath | Trajectory) else dataset(result)
     out = FilePath(path)
     out.parent.mkdir(parents=True, exist_ok=True)
     ds.to_netcdf(out, engine="h5netcdf")
     return out
 
 
-def save_csv(result: Path | Trajectory, path: str | FilePath) -> FilePath:
+def save_csv(result: EquilibriumPath | Trajectory, path: str | FilePath) -> FilePath:
     """Write the scalar observables, one row per step (path) or time (trajectory, column
     ``t`` [s] first). A first comment line gives the units."""
-    if not isinstance(result, Path | Trajectory):
-        raise ConfigError("result", type(result).__name__, "a biplan Path or Trajectory")
+    if not isinstance(result, EquilibriumPath | Trajectory):
+        raise ConfigError("result", type(result).__name__, "a biplan EquilibriumPath or Trajectory")
     ds = result.to_dataset()
     cols = list(CSV_COLUMNS)
     if isinstance(result, Trajectory):
@@ -127,7 +127,7 @@ def _fmt(v: Any) -> str:
     return repr(float(v))
 
 
-def save(result: Path | Trajectory, path: str | FilePath) -> FilePath:
+def save(result: EquilibriumPath | Trajectory, path: str | FilePath) -> FilePath:
     """Write ``.nc`` or ``.csv`` by the file suffix."""
     p = FilePath(path)
     if p.suffix == ".nc":

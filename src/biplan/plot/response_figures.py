@@ -39,7 +39,7 @@ if TYPE_CHECKING:
     from biplan.analysis.response.quasistatic import QuasiStaticPath
     from biplan.model.assembly import Model
     from biplan.solvers.newton import Solution
-    from biplan.solvers.path_results import Path
+    from biplan.solvers.path_results import EquilibriumPath
     from biplan.solvers.trajectory_results import Trajectory
 
 __all__ = [
@@ -56,7 +56,9 @@ ANIMATION_FRAMES = 50
 DISPLACEMENT_COLOR = "#D55E00"
 
 
-def response_figure(result: QuasiStaticPath | Path | Trajectory, file: str | FilePath) -> FilePath:
+def response_figure(
+    result: QuasiStaticPath | EquilibriumPath | Trajectory, file: str | FilePath
+) -> FilePath:
     """Write ``file``: F (p [kPa] under pressure control) against z_p [mm]; a trajectory adds
     F and z_p against time in a second panel (twice as wide). Returns ``file``."""
     from biplan.solvers.results import display_units
@@ -119,12 +121,12 @@ def sweep_figures(
     snapshots : mapping of str to int
         Panel name (``"B.1"``…) → step index of the snapshot states
         (:func:`biplan.reproduction.facts.snapshot_steps`).
-    out : Path
+    out : pathlib.Path
         Output folder (it must exist).
 
     Returns
     -------
-    list of Path
+    list of pathlib.Path
         ``force_displacement.png``, then ``development.png`` and ``cylinder.png`` when there
         is a snapshot.
     """
@@ -209,7 +211,7 @@ def _cylinders(model: Model, states: list[Any], keys: list[str], file: FilePath)
             )
 
 
-def ramp_and_path_figure(path: Path, ramp: Trajectory, file: str | FilePath) -> FilePath:
+def ramp_and_path_figure(path: EquilibriumPath, ramp: Trajectory, file: str | FilePath) -> FilePath:
     """Write ``file``: the displacement-controlled equilibrium ``path`` and the force ``ramp``
     (dynamic) in the force–displacement plane. Returns ``file``."""
     with figure_file(file, figsize=COLUMN_FIGSIZE) as (_, ax):

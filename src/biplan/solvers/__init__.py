@@ -15,8 +15,8 @@ from biplan.solvers.newton import Status as Status
 from biplan.solvers.newton import relaxed_reference as relaxed_reference
 from biplan.solvers.newton import solve_equilibrium as solve_equilibrium
 from biplan.solvers.path_results import Critical as Critical
+from biplan.solvers.path_results import EquilibriumPath as EquilibriumPath
 from biplan.solvers.path_results import Event as Event
-from biplan.solvers.path_results import Path as Path
 from biplan.solvers.path_results import PathStatus as PathStatus
 from biplan.solvers.trajectory_results import Trajectory as Trajectory
 from biplan.solvers.trajectory_results import TrajectoryStatus as TrajectoryStatus
@@ -27,12 +27,12 @@ __all__ = [
     "Control",
     "ControlKind",
     "Critical",
+    "EquilibriumPath",
     "Event",
     "GeneralizedAlpha",
     "LoadHistory",
     "LoadStepping",
     "Newton",
-    "Path",
     "PathStatus",
     "Solution",
     "Status",

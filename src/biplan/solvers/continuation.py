@@ -12,8 +12,8 @@ pressure) goes to ``load.stop``:
   follows the branch through limit points and snap-backs.
 
 Steps adapt: a corrector that fails (no convergence in ``max_iterations``) halves the step
-(a *cut-back*, counted in ``Path.stats``); easy steps (≤ 3 iterations) grow it by ``grow``, hard
-ones (≥ 7) shrink it. The whole loop is one compiled call on the model's system (see
+(a *cut-back*, counted in ``EquilibriumPath.stats``); easy steps (≤ 3 iterations) grow it by
+``grow``, hard ones (≥ 7) shrink it. The whole loop is one compiled call on the model's system (see
 :mod:`biplan.solvers.path_loop`); the recorded states are then observed in parallel
 (:mod:`biplan.solvers.observation`): end force, u_z, u_r, θ, energy by fold, phase fractions, the
 smallest reduced-Hessian eigenvalue and stability. Where that eigenvalue changes sign between
@@ -34,7 +34,7 @@ from biplan.solvers import lanes, observation, path_loop
 from biplan.solvers.control import Control
 from biplan.solvers.newton import Newton, Solution, solve_equilibrium
 from biplan.solvers.observe import CHUNK, STABILITY_TOL, Observation
-from biplan.solvers.path_results import Critical, Event, Path, PathStats, PathStatus
+from biplan.solvers.path_results import Critical, EquilibriumPath, Event, PathStats, PathStatus
 
 __all__ = ["ArcLength", "LoadStepping", "trace_path"]
 
@@ -179,7 +179,7 @@ def trace_path(
     load: Control | None = None,
     *,
     throw: bool = False,
-) -> Path:
+) -> EquilibriumPath:
     """Follow the equilibrium path of ``model`` under the controlled load ``load``.
 
     Parameters
@@ -197,7 +197,7 @@ def trace_path(
 
     Returns
     -------
-    Path
+    EquilibriumPath
         Check ``path.status``: ``COMPLETED`` when Λ reached ``control.stop``; otherwise the
         path up to the last converged state, with the reason in ``path.message``
         (``FULL_CONTACT``: the tube is pressed shut, :data:`FULL_CONTACT_PENETRATION`).
@@ -309,7 +309,7 @@ def trace_path(
         smallest_step=float(steps[1:].min()) if count > 1 else float("nan"),
         largest_step=float(steps[1:].max()) if count > 1 else float("nan"),
     )
-    path = Path.build(
+    path = EquilibriumPath.build(
         model=model,
         control=control,
         method=type(method).__name__,

@@ -1,6 +1,7 @@
-"""The result of path following: :class:`Path`, with why it ended (:class:`PathStatus`), the
-work it took (:class:`PathStats`), its located limit points and bifurcations (:class:`Event`)
-and, for a load-controlled response, its jumps between stable branches (:class:`Snap`).
+"""The result of path following: :class:`EquilibriumPath`, with why it ended
+(:class:`PathStatus`), the work it took (:class:`PathStats`), its located limit points and
+bifurcations (:class:`Event`) and, for a load-controlled response, its jumps between stable
+branches (:class:`Snap`).
 
 A path converts to an ``xarray.Dataset`` (dim ``step``) with
 :meth:`~biplan.solvers.results.LabelledResult.to_dataset` (:mod:`biplan.solvers.results`).
@@ -20,7 +21,7 @@ from biplan.solvers.control import Control
 from biplan.solvers.observe import Observation
 from biplan.solvers.results import OBSERVABLES, LabelledResult, display_units, observables
 
-__all__ = ["Critical", "Event", "Path", "PathStats", "PathStatus", "Snap"]
+__all__ = ["Critical", "EquilibriumPath", "Event", "PathStats", "PathStatus", "Snap"]
 
 
 class PathStatus(ResultStatus):
@@ -140,7 +141,7 @@ class PathStats:
 
 
 @dataclass(frozen=True)
-class Path(LabelledResult):
+class EquilibriumPath(LabelledResult):
     """An equilibrium path (one entry per accepted step; located events inserted).
 
     Attributes
@@ -220,7 +221,7 @@ class Path(LabelledResult):
         status: PathStatus,
         stats: PathStats,
         direction: np.ndarray,
-    ) -> Path:
+    ) -> EquilibriumPath:
         common: dict[str, Any] = observables(model, observation, load_parameter)
         return cls(
             model=model,

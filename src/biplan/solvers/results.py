@@ -1,6 +1,6 @@
 """The labelled form shared by the results of path following and time integration.
 
-:class:`~biplan.solvers.path_results.Path` (one entry per equilibrium step) and
+:class:`~biplan.solvers.path_results.EquilibriumPath` (one entry per equilibrium step) and
 :class:`~biplan.solvers.trajectory_results.Trajectory` (one entry per saved time) share the
 observables of :class:`~biplan.solvers.observe.Observation` (:data:`OBSERVABLES`, built by
 :func:`observables`) and convert to an ``xarray.Dataset`` with
@@ -132,8 +132,9 @@ def _version() -> str:
 
 
 class LabelledResult:
-    """The conversion to an ``xarray.Dataset`` shared by :class:`~biplan.solvers.path_results.Path`
-    and :class:`~biplan.solvers.trajectory_results.Trajectory` (see the module docstring)."""
+    """The conversion to an ``xarray.Dataset`` shared by
+    :class:`~biplan.solvers.path_results.EquilibriumPath` and
+    :class:`~biplan.solvers.trajectory_results.Trajectory` (see the module docstring)."""
 
     model: Model
     control: Control

@@ -48,7 +48,7 @@ class Trajectory(LabelledResult):
     ----------
     time : ndarray [s]
     force, displacement, u_z, u_r, theta, energy, … : as for
-        :class:`~biplan.solvers.path_results.Path`
+        :class:`~biplan.solvers.path_results.EquilibriumPath`
     kinetic_energy, external_work, dissipated_energy : ndarray [N·mm]
     total_energy : ndarray [N·mm]
         Kinetic + strain − external work + dissipated (conserved by an exact integrator).

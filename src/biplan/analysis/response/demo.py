@@ -31,7 +31,7 @@ from biplan.solvers.continuation import ArcLength, trace_path
 from biplan.solvers.control import Control
 from biplan.solvers.dynamics import GeneralizedAlpha, LoadHistory, integrate
 from biplan.solvers.newton import Solution, relaxed_reference
-from biplan.solvers.path_results import Path, Snap
+from biplan.solvers.path_results import EquilibriumPath, Snap
 from biplan.solvers.trajectory_results import Trajectory
 
 __all__ = [
@@ -116,7 +116,7 @@ class RampAndPath:
     ----------
     ramp : Trajectory
         Under F(t) = 0.8 N/s · t, 0 ≤ t ≤ 2 s.
-    path : Path
+    path : EquilibriumPath
         The equilibrium path to U = :data:`MAX_DISPLACEMENT` [mm].
     rayleigh : float
         The ramp's Rayleigh coefficient α_R [1/s].
@@ -126,7 +126,7 @@ class RampAndPath:
     """
 
     ramp: Trajectory
-    path: Path
+    path: EquilibriumPath
     rayleigh: float
     lines: tuple[str, ...]
 

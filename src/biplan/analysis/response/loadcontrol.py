@@ -20,10 +20,11 @@ on from there. :func:`load_response` reproduces that sequence:
    same load: a cascade, recorded as successive snaps;
 4. from there, step 1 again, until the stop value is reached.
 
-The result is one :class:`~biplan.solvers.path_results.Path` of stable states with ``segment``
-(branch index per state) and ``snaps`` (:class:`~biplan.solvers.path_results.Snap`: where, at what
-load, which folds went, how the landing was found). The equilibrium path through unstable
-states, a numerical device, is :func:`~biplan.solvers.continuation.trace_path` itself.
+The result is one :class:`~biplan.solvers.path_results.EquilibriumPath` of stable states with
+``segment`` (branch index per state) and ``snaps`` (:class:`~biplan.solvers.path_results.Snap`:
+where, at what load, which folds went, how the landing was found). The equilibrium path
+through unstable states, a numerical device, is
+:func:`~biplan.solvers.continuation.trace_path` itself.
 """
 
 from __future__ import annotations
@@ -40,7 +41,7 @@ from biplan.model.assembly import Model
 from biplan.solvers.continuation import ArcLength, trace_path
 from biplan.solvers.control import Control
 from biplan.solvers.newton import Newton, Solution, solve_equilibrium
-from biplan.solvers.path_results import Critical, Path, PathStats, PathStatus, Snap
+from biplan.solvers.path_results import Critical, EquilibriumPath, PathStats, PathStatus, Snap
 from biplan.solvers.results import fold_names
 
 __all__ = [
@@ -93,7 +94,7 @@ def load_response(
     *,
     stop_at_snap: bool = False,
     max_snaps: int = MAX_SNAPS,
-) -> Path:
+) -> EquilibriumPath:
     """The response of a load-controlled test (force or pressure), snaps included.
 
     Parameters
@@ -114,7 +115,7 @@ def load_response(
 
     Returns
     -------
-    Path
+    EquilibriumPath
         The stable states in order of load, with ``segment`` and ``snaps``. ``status``:
         ``COMPLETED`` at the stop value; ``SNAPPED`` at the first snap when asked;
         ``NO_LANDING`` when no stable state was found at a snap load; otherwise the status of
@@ -127,7 +128,7 @@ def load_response(
     check_integer("max_snaps", max_snaps, low=0)
     method = replace(PEAK_METHOD if method is None else method, stop_at_limit_point=True)
     solver = Newton(atol=method.atol)
-    pieces: list[Path] = []
+    pieces: list[EquilibriumPath] = []
     snaps: list[Snap] = []
     current, lam_start = start, control.start
     while True:
@@ -192,7 +193,7 @@ def first_snap(
     return response.snaps[0] if response.snaps else None
 
 
-def _stable_end(path: Path, end: int | None, sense: float) -> tuple[int, int | None]:
+def _stable_end(path: EquilibriumPath, end: int | None, sense: float) -> tuple[int, int | None]:
     """(k, end): the largest load before the first unstable state ``end``; ``end`` becomes
     None when the load turned back on stable states before it."""
     last = path.n_steps if end is None else end
@@ -200,12 +201,14 @@ def _stable_end(path: Path, end: int | None, sense: float) -> tuple[int, int | N
     return k, (end if k == last - 1 else None)
 
 
-def _turn_tolerance(path: Path, k: int) -> float:
+def _turn_tolerance(path: EquilibriumPath, k: int) -> float:
     """The tolerance a turn of the load is located to: :data:`TURN_TOLERANCE` relative."""
     return TURN_TOLERANCE * max(abs(float(path.load_parameter[k])), 1.0)
 
 
-def _refine_turn(model: Model, method: ArcLength, control: Control, path: Path, k: int) -> Path:
+def _refine_turn(
+    model: Model, method: ArcLength, control: Control, path: EquilibriumPath, k: int
+) -> EquilibriumPath:
     """``path`` with the steps around a turn of the load at state ``k`` traced again from
     state k − 1 with :data:`TURN_REFINEMENT` times shorter steps."""
     j = min(k + 1, path.n_steps - 1)
@@ -229,13 +232,13 @@ def _refine_turn(model: Model, method: ArcLength, control: Control, path: Path, 
     return _concat([_head(path, k - 1), again])
 
 
-def _first_unstable(path: Path) -> int | None:
+def _first_unstable(path: EquilibriumPath) -> int | None:
     """Index of the first state (past the start) that is unstable and not a located event."""
     bad = np.flatnonzero(~path.stable[1:] & ~path.is_event[1:])
     return int(bad[0]) + 1 if bad.size else None
 
 
-def _critical(path: Path, k: int, end: int | None) -> tuple[Critical, float]:
+def _critical(path: EquilibriumPath, k: int, end: int | None) -> tuple[Critical, float]:
     """What was lost at state ``k`` (the last kept) and the located tolerance in Λ."""
     for e in path.events:
         if e.step == k:
@@ -246,7 +249,7 @@ def _critical(path: Path, k: int, end: int | None) -> tuple[Critical, float]:
     return Critical.LOSS_OF_STABILITY, abs(float(path.load_parameter[end] - path.load_parameter[k]))
 
 
-def _head(path: Path, n: int) -> Path:
+def _head(path: EquilibriumPath, n: int) -> EquilibriumPath:
     """The first ``n`` states of a path (events beyond them dropped)."""
     cut = {f.name: getattr(path, f.name)[:n] for f in fields(path) if f.name in _PER_STEP}
     return replace(path, events=tuple(e for e in path.events if e.step < n), **cut)
@@ -258,7 +261,7 @@ def _potential(sol: Solution) -> float:
 
 
 def _land(
-    model: Model, control: Control, path: Path, k: int, end: int | None, solver: Newton
+    model: Model, control: Control, path: EquilibriumPath, k: int, end: int | None, solver: Newton
 ) -> tuple[Solution, float] | None:
     """The stable state the tube snaps to from state ``k`` of ``path`` (see the module
     docstring), with the load at which it was found, or None.
@@ -294,7 +297,7 @@ def _land(
 def _directions(
     model: Model,
     control: Control,
-    path: Path,
+    path: EquilibriumPath,
     k: int,
     end: int | None,
     solver: Newton,
@@ -321,7 +324,7 @@ def _directions(
     return [float(np.sign(cos)) * v] if abs(cos) > ALIGNED else [v, -v]
 
 
-def _concat(pieces: list[Path]) -> Path:
+def _concat(pieces: list[EquilibriumPath]) -> EquilibriumPath:
     """The states of the paths in order, as one path (events renumbered, stats summed)."""
     first = pieces[0]
     arrays: dict[str, Any] = {
@@ -344,13 +347,15 @@ def _concat(pieces: list[Path]) -> Path:
     return replace(first, events=events, stats=total, status=pieces[-1].status, **arrays)
 
 
-def _join(pieces: list[Path], snaps: tuple[Snap, ...], status: PathStatus) -> Path:
-    """One Path of the stretches in order, with ``segment``, ``snaps`` and ``status``."""
+def _join(
+    pieces: list[EquilibriumPath], snaps: tuple[Snap, ...], status: PathStatus
+) -> EquilibriumPath:
+    """One EquilibriumPath of the stretches in order, with ``segment``, ``snaps`` and ``status``."""
     segment = np.concatenate([np.full(p.n_steps, i) for i, p in enumerate(pieces)])
     return replace(_concat(pieces), method="stable", status=status, segment=segment, snaps=snaps)
 
 
-def _with_folds(path: Path, snap: Snap) -> Snap:
+def _with_folds(path: EquilibriumPath, snap: Snap) -> Snap:
     """The snap with the folds whose dominant phase differs between its two states."""
     if snap.step + 1 >= path.n_steps:
         return snap

@@ -45,7 +45,7 @@ from biplan.solvers.continuation import ArcLength, LoadStepping, trace_path
 from biplan.solvers.control import Control, ControlKind
 from biplan.solvers.dynamics import BackwardEuler, LoadHistory, integrate
 from biplan.solvers.newton import relaxed_reference
-from biplan.solvers.path_results import Path, Snap
+from biplan.solvers.path_results import EquilibriumPath, Snap
 from biplan.solvers.results import display_units
 from biplan.solvers.trajectory_results import Trajectory
 
@@ -58,7 +58,7 @@ class Response:
 
     Attributes
     ----------
-    result : QuasiStaticPath, Path or Trajectory
+    result : QuasiStaticPath, EquilibriumPath or Trajectory
         The stable-branch sweep, the path or the trajectory.
     summary : ResponseSummary
         Its key numbers (:func:`response_summary`).
@@ -66,7 +66,7 @@ class Response:
         What was run.
     """
 
-    result: QuasiStaticPath | Path | Trajectory
+    result: QuasiStaticPath | EquilibriumPath | Trajectory
     summary: ResponseSummary
     settings: QuasiStatic | Ramp
 
@@ -152,7 +152,7 @@ def respond(model: Model, control: ControlKind | str, settings: QuasiStatic | Ra
     -------
     Response
         The result (a :class:`~biplan.analysis.response.quasistatic.QuasiStaticPath` for the
-        stable displacement sweep, a :class:`~biplan.solvers.path_results.Path` for every
+        stable displacement sweep, a :class:`~biplan.solvers.path_results.EquilibriumPath` for every
         other quasi-static response, a :class:`~biplan.solvers.trajectory_results.Trajectory`
         for a ramp) and its summary. Check ``complete`` and ``short``.
 
@@ -163,7 +163,7 @@ def respond(model: Model, control: ControlKind | str, settings: QuasiStatic | Ra
         stable sweep of more than ``max_steps`` steps.
     """
     kind = ControlKind(control)
-    result: QuasiStaticPath | Path | Trajectory
+    result: QuasiStaticPath | EquilibriumPath | Trajectory
     if isinstance(settings, Ramp):
         result = ramp_response(model, kind, settings)
     elif settings.stop_at_snap and (
@@ -191,7 +191,7 @@ def stable_sweep(model: Model, settings: QuasiStatic) -> QuasiStaticPath:
     return quasistatic.displacement_sweep(model, np.linspace(stop / n, stop, n), start=ref)
 
 
-def _quasi_static(model: Model, kind: ControlKind, settings: QuasiStatic) -> Path:
+def _quasi_static(model: Model, kind: ControlKind, settings: QuasiStatic) -> EquilibriumPath:
     """A load-controlled test (``Method.STABLE``) or a numerical path."""
     ctl = Control(kind, settings.stop)
     steps: dict[str, Any] = {
@@ -219,7 +219,9 @@ def ramp_response(model: Model, kind: ControlKind, ramp: Ramp) -> Trajectory:
     return integrate(model, scheme, t_end=ramp.times[-1], load=history)
 
 
-def response_summary(model: Model, result: QuasiStaticPath | Path | Trajectory) -> ResponseSummary:
+def response_summary(
+    model: Model, result: QuasiStaticPath | EquilibriumPath | Trajectory
+) -> ResponseSummary:
     """The response's summary; its phase-1 peak the located one when the response leaves
     phase 1: the response's first snap under force control, else
     :func:`~biplan.analysis.response.loadcontrol.first_snap` (a ramp that never leaves phase
