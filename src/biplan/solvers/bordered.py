@@ -22,6 +22,8 @@ reports a singular J as NaN (:func:`dense_solve`). Small tubes (below
 
 from __future__ import annotations
 
+from typing import Any
+
 import llvmlite.binding as llvm
 import numpy as np
 from numba import njit, types
@@ -48,9 +50,9 @@ for _name in ("dgbtrf", "dgbtrs"):
     )
 _P = types.voidptr
 #: dgbtrf(m, n, kl, ku, ab, ldab, ipiv, info)
-_dgbtrf = types.ExternalFunction("biplan_dgbtrf", types.void(*([_P] * 8)))
+_dgbtrf: Any = types.ExternalFunction("biplan_dgbtrf", types.void(*([_P] * 8)))
 #: dgbtrs(trans, n, kl, ku, nrhs, ab, ldab, ipiv, b, ldb, info)
-_dgbtrs = types.ExternalFunction("biplan_dgbtrs", types.void(*([_P] * 11)))
+_dgbtrs: Any = types.ExternalFunction("biplan_dgbtrs", types.void(*([_P] * 11)))
 _NO_TRANSPOSE = 78  # ord("N")
 
 

@@ -9,8 +9,9 @@ the multiplier μ) and a reverse Cuthill–McKee order of the rest, whose bandwi
 of the borders of :data:`DEGREE_LIMITS` it keeps the cheapest (:func:`solve_cost`).
 The result enters :class:`~.tables.SystemData` as ``solve_order`` (the inner unknowns in band
 order, then the border) and ``solve_band`` (n_inner, kl, ku); both are empty, and every solve
-is dense LU, for tubes below :data:`MIN_UNKNOWNS` unknowns or when the structure does not pay
-(:data:`MIN_GAIN`; e.g. denser chains of other readings).
+is dense LU, for tubes below :data:`MIN_UNKNOWNS` unknowns, when the structure does not pay
+(:data:`MIN_GAIN`; e.g. denser chains of other readings) or when ``BIPLAN_KKT_SOLVE=dense``
+(:data:`SOLVE_ENV`).
 
 Measured crossover (``benchmarks/bench_linear.py``, docs/performance.md): the bordered banded
 solve wins from N = 12 (n_z = 127) on, by ≈ 10× at N = 48; at N = 6 (n_z = 64) dense LU is as
@@ -18,6 +19,8 @@ fast, so tubes below :data:`MIN_UNKNOWNS` keep it.
 """
 
 from __future__ import annotations
+
+import os
 
 import numpy as np
 import scipy.sparse as sp
@@ -30,11 +33,15 @@ __all__ = [
     "DEGREE_LIMITS",
     "MIN_GAIN",
     "MIN_UNKNOWNS",
+    "SOLVE_ENV",
     "jacobian_pattern",
     "solve_cost",
     "solve_layout",
 ]
 
+#: Environment variable: ``dense`` gives every layout seen afterwards dense LU (the linear
+#: algebra of earlier versions, for comparisons: ``benchmarks/bench_long_tube.py``).
+SOLVE_ENV = "BIPLAN_KKT_SOLVE"
 #: Tubes with fewer unknowns n_z solve densely (N = 6: 64 unknowns; N = 12: 127).
 MIN_UNKNOWNS = 100
 #: The border takes unknowns while one couples more than this many of the others; each limit
@@ -109,7 +116,7 @@ def solve_layout(
     n_q, n_g, n_c = (int(v) for v in data.sizes)
     n_z = n_q + n_g + n_c + 1
     none = (np.zeros(0, dtype=np.int64), np.zeros(0, dtype=np.int64))
-    if n_z < min_unknowns:
+    if n_z < min_unknowns or os.environ.get(SOLVE_ENV, "").lower() == "dense":
         return none
     pattern = jacobian_pattern(data)
     best = min(
