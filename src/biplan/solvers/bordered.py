@@ -180,10 +180,14 @@ def banded_solve(
     order : ndarray (n,) of int
         The inner unknowns in band order, then the border.
     n_inner : int
-        Number of inner unknowns; a[order[:n_inner]][:, order[:n_inner]] has ``kl``
-        subdiagonals and ``ku`` superdiagonals (entries outside are ignored).
+        Number of inner unknowns, whose block of ``a`` (rows and columns ``order[:n_inner]``)
+        has ``kl`` subdiagonals and ``ku`` superdiagonals (entries outside are ignored).
 
-    ``ok`` is False when the band or the Schur complement is singular.
+    Returns
+    -------
+    x : ndarray (n,)
+    ok : bool
+        False when the band or the Schur complement is singular.
     """
     n = a.shape[0]
     m, k = n_inner, n - n_inner
@@ -232,7 +236,7 @@ def lm_solve(
     a: np.ndarray, r: np.ndarray, damping: float, order: np.ndarray, n_inner: int, kl: int, ku: int
 ) -> tuple[np.ndarray, bool]:
     """(dz, ok): the Levenberg–Marquardt step (aᵀa + ν D) dz = −aᵀr, D = diag(aᵀa) + 1e-12,
-    by the augmented system [[I, a], [aᵀ, −ν D]] [y; dz] = [−r; 0] (y = −r − a dz) in the
+    by the augmented system ``[[I, a], [aᵀ, −ν D]] (y, dz) = (−r, 0)`` (y = −r − a dz) in the
     bordered banded solve, unchecked: inner unknowns interleaved (y_i, dz_i) in band order
     (bandwidth 2 max(kl, ku) + 1), border y_K, dz_K. Never forms aᵀa (and is the more
     accurate: the augmented system's condition is that of a, the normal equations' its
