@@ -148,6 +148,10 @@ class Model:
             raise ConfigError("stiffness", kappa, ">= 0")
         out = copy.copy(self)
         out.params = self.params._replace(bias_anchor=anchor, bias_stiffness=np.asarray(kappa))
+        cached = self.__dict__.get("_system")
+        if cached is not None and cached[0] is self.params:  # the same tables, another bias
+            system = cached[1].with_bias(anchor if kappa else np.zeros_like(anchor), kappa)
+            out.__dict__["_system"] = (out.params, system)
         return out
 
     def with_options(self, **changes: Any) -> Model:

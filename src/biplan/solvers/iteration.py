@@ -35,6 +35,7 @@ from biplan.model.system.assemble import evaluate
 from biplan.model.system.chainterm import load_point
 from biplan.model.system.inertia import add_inertia
 from biplan.model.system.tables import SystemData
+from biplan.solvers.bordered import _full_order, dense_solve, direction, fits, lm_solve
 from biplan.solvers.core_settings import Status
 
 __all__ = [
@@ -124,13 +125,8 @@ def system(
     return res, jac
 
 
-@njit(cache=True)
-def _solve(a: np.ndarray, b: np.ndarray) -> np.ndarray:
-    """a⁻¹ b by LU; NaN where a is singular (as JAX's solve reports it)."""
-    try:
-        return np.linalg.solve(a, b)
-    except Exception:
-        return np.full(b.shape[0], np.nan)
+#: a⁻¹ b by dense LU; NaN where a is singular (the Levenberg–Marquardt direction's solve).
+_solve = dense_solve
 
 
 @njit(cache=True)
@@ -139,17 +135,56 @@ def _finite(x: np.ndarray) -> bool:
 
 
 @njit(cache=True)
-def _lm_direction(jac: np.ndarray, r: np.ndarray, damping: float) -> np.ndarray:
-    """Levenberg–Marquardt step (JᵀJ + ν diag(JᵀJ + 1e-12)) dz = −Jᵀr (0 where not finite)."""
-    jtj = jac.T @ jac
+def _lm_step(jtj: np.ndarray, g: np.ndarray, damping: float) -> np.ndarray:
+    """Levenberg–Marquardt step (JᵀJ + ν diag(JᵀJ + 1e-12)) dz = g, g = −Jᵀr (0 where not
+    finite), from JᵀJ and g (:func:`_normal_equations`)."""
     a = jtj.copy()
     for i in range(a.shape[0]):
         a[i, i] += damping * (jtj[i, i] + 1e-12)
-    step = _solve(a, -(jac.T @ r))
+    step = _solve(a, g)
     for i in range(step.shape[0]):
         if not np.isfinite(step[i]):
             step[i] = 0.0
     return step
+
+
+@njit(cache=True)
+def _normal_equations(jac: np.ndarray, r: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """(JᵀJ, −Jᵀr) of the Levenberg–Marquardt step."""
+    return jac.T @ jac, -(jac.T @ r)
+
+
+@njit(cache=True)
+def _lm_direction(jac: np.ndarray, r: np.ndarray, damping: float) -> np.ndarray:
+    """Levenberg–Marquardt step (JᵀJ + ν diag(JᵀJ + 1e-12)) dz = −Jᵀr (0 where not finite)."""
+    jtj, g = _normal_equations(jac, r)
+    return _lm_step(jtj, g, damping)
+
+
+@njit(cache=True)
+def _levenberg_marquardt(
+    d: SystemData,
+    jac: np.ndarray,
+    r: np.ndarray,
+    damping: float,
+    structured: bool,
+    jtj: np.ndarray,
+    g: np.ndarray,
+    kept: bool,
+) -> tuple:  # type: ignore[type-arg]
+    """(step, JᵀJ, −Jᵀr, kept): the Levenberg–Marquardt step of :func:`_lm_direction` at
+    (J, r), by the augmented system in the bordered banded solve where ``structured`` and the
+    layout fits (:func:`biplan.solvers.bordered.lm_solve`), else from the normal equations
+    (JᵀJ, −Jᵀr), formed once an iterate (``kept``: they are those of this J and r)."""
+    n = jac.shape[0]
+    order, band = d.solve_order, d.solve_band
+    if structured and fits(n, order, band):
+        step, ok = lm_solve(jac, r, damping, _full_order(order, n), band[0], band[1], band[2])
+        if ok and _finite(step):
+            return step, jtj, g, kept
+    if not kept:
+        jtj, g = _normal_equations(jac, r)
+    return _lm_step(jtj, g, damping), jtj, g, True
 
 
 @njit(cache=True, inline="always")
@@ -252,6 +287,9 @@ def solve(
     free = int(settings[4])
     with_lm = settings[5] > 0.5
     deflated = deflation.shape[0] > 0
+    # the bordered banded solve of the layout (solvers.bordered); dense LU for the deflated
+    # system (M R ∇ηᵀ fills the q columns) and a time step's inertia rows
+    structured = not deflated and step.shape[0] == 0
     no_jacobian = np.zeros((0, 0))  # (a global array would be read-only)
     alpha_min = 0.5**max_bt
     max_evals = max(max_steps, 1) * (max_bt + 1)
@@ -264,6 +302,9 @@ def solve(
     slope, alpha, lm, damping = 0.0, 0.0, False, 1e-3
     steps, evals, status = 0, 0, -1
     best_z, best_r, best_f, best_jac, best_dz, best_lm = z.copy(), r.copy(), np.inf, jac, dz, False
+    # JᵀJ and −Jᵀr at the current iterate for dense Levenberg–Marquardt steps, kept while
+    # trials are rejected there (only the damping changes): one product JᵀJ (O(n³)) an iterate
+    lm_jtj, lm_g, lm_kept = np.zeros((0, 0)), np.zeros(0), False
     while status < 0 and evals < max_evals:
         zt = z + alpha * dz
         rt = system(d, zt, load, border, rho, False, step)[0]
@@ -280,10 +321,15 @@ def solve(
         if accept:
             rj, jt = system(d, zt, load, border, rho, True, step)
             m = deflate(d, zt, rj, jt, deflation) if deflated else 1.0
-            dz_n = _solve(jt, -rt)
+            dz_n = direction(jt, -rt, d.solve_order, d.solve_band, structured)
             newton_ok = _finite(dz_n)
-            if newton_ok or with_lm:
-                dz_a = dz_n if newton_ok else _lm_direction(jt, rt, damping)
+            lm_kept = False
+            if newton_ok:
+                dz_a = dz_n
+            elif with_lm:
+                dz_a, lm_jtj, lm_g, lm_kept = _levenberg_marquardt(
+                    d, jt, rt, damping, structured, lm_jtj, lm_g, False
+                )
             else:  # a singular Newton system ends the plain damped Newton
                 dz_a = dz_n
                 status = _FAILED
@@ -301,12 +347,17 @@ def solve(
         else:
             if to_lm and not with_lm:  # halvings spent: the damped Newton fails here
                 status = _FAILED
-            elif to_lm:
-                dz = _lm_direction(jac, r, damping_r)
+            elif to_lm and damping_r > 1e12:  # fails below: no step to compute
                 alpha = 1.0
-            else:
+            elif to_lm:
+                dz, lm_jtj, lm_g, lm_kept = _levenberg_marquardt(
+                    d, jac, r, damping_r, structured, lm_jtj, lm_g, lm_kept
+                )
+                alpha = 1.0
+            else:  # a halving: dz, and with it the slope, stay
                 alpha = 0.5 * alpha
-            slope = float(r @ (jac @ dz))
+            if to_lm:
+                slope = float(r @ (jac @ dz))
             lm, damping = to_lm and with_lm, damping_r
             if status == _FAILED:
                 pass
@@ -323,6 +374,7 @@ def solve(
             best_z, best_r, best_f, best_jac, best_dz, best_lm = z, r, f, jac, dz, lm
         if used and free == 0 and status != _CONVERGED and best_f < f:
             z, r, f, jac, dz, lm = best_z, best_r, best_f, best_jac, best_dz, best_lm
+            lm_kept = False
             slope, alpha = float(r @ (jac @ dz)), 1.0
     if status < 0:
         status = _MAX_STEPS

@@ -19,7 +19,7 @@ import numpy as np
 
 from biplan._compile import numba_cache  # first: the kernels' cache locator
 from biplan.geometry.layout import TubeLayout
-from biplan.model.system import assemble, chainterm
+from biplan.model.system import assemble, chainterm, ordering
 from biplan.model.system.tables import SystemData, system_data
 from biplan.model.tube import Tube
 
@@ -71,7 +71,8 @@ class System:
         _announce_compile()
         data = system_data(layout, radius, pitch, beta, helical, circular)
         data = data._replace(load_reference=np.array([chainterm.reference_height(data)]))
-        return System(data, np.zeros(3))
+        order, band = _solve_layout(layout, data)
+        return System(data._replace(solve_order=order, solve_band=band), np.zeros(3))
 
     def with_contact(self, smoothing: float, compliance: float, smooth_min_width: float) -> System:
         """The system with other contact numbers: ε of the smoothed Fischer–Burmeister rows,
@@ -145,6 +146,16 @@ class System:
 
 
 _ANNOUNCED: list[bool] = []
+#: :func:`.ordering.solve_layout` of the layouts seen (structure only: one entry per layout).
+_LAYOUTS: dict[TubeLayout, tuple[np.ndarray, np.ndarray]] = {}
+
+
+def _solve_layout(layout: TubeLayout, data: SystemData) -> tuple[np.ndarray, np.ndarray]:
+    """The layout's bordered banded solve order, computed once per layout and process."""
+    found = _LAYOUTS.get(layout)
+    if found is None:
+        found = _LAYOUTS[layout] = ordering.solve_layout(data)
+    return found
 
 
 def _announce_compile() -> None:

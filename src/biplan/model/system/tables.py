@@ -79,6 +79,9 @@ class SystemData(NamedTuple):
     bias_anchor: np.ndarray  # (n_q,) anchor of the proximal bias ½κ‖q − q_a‖²
     bias_stiffness: np.ndarray  # (1,) κ
     load_reference: np.ndarray  # (1,) Z(0), the load point at q = 0 [mm] (geometry only)
+    # the bordered banded solve of ∂r/∂z (:mod:`.ordering`; both empty: dense LU)
+    solve_order: np.ndarray  # (n_z,) int: the inner unknowns in band order, then the border
+    solve_band: np.ndarray  # (3,) int: n_inner, kl, ku
 
 
 def _reference(kind: ModuleKind, mirror: MirrorConvention, l: float, h: float, h1: float):  # type: ignore[no-untyped-def]
@@ -187,6 +190,8 @@ def system_data(
         bias_anchor=np.zeros(n_q),
         bias_stiffness=np.zeros(1),
         load_reference=np.zeros(1),
+        solve_order=np.zeros(0, dtype=np.int64),
+        solve_band=np.zeros(0, dtype=np.int64),
     )
 
 
