@@ -37,14 +37,12 @@ import numpy as np
 import biplan
 if {oracle}:
     from biplan.model import lagrangian, oracle as _oracle
-    from biplan.solvers import observe
     from biplan.analysis.maps import design_map
     for mod in (lagrangian, design_map):
         for name in ("residual", "kkt_jacobian"):
             if hasattr(mod, name):
                 setattr(mod, name, getattr(_oracle, name))
-    for mod in (lagrangian, observe):
-        mod.state_data = _oracle.state_data
+    lagrangian.state_data = _oracle.state_data
 n, design = {n}, "{design}"
 if design == "semi":
     t = biplan.designs.semi_bistable()

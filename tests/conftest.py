@@ -1,7 +1,8 @@
 """Shared fixtures of the physics test-suite.
 
-Every distinct tube *layout* (number of modules, base fold, readings) compiles its JAX kernels
-once, so the suite reuses four layouts through session-scoped fixtures:
+The compiled core takes every tube as data; the JAX oracles (``tests/jax_oracle``) and the
+sensitivities compile per tube *layout* (number of modules, base fold, readings), so the suite
+reuses four layouts through session-scoped fixtures:
 
 * ``model1``: one standard module on a base circular fold (semi-bistable laws),
 * ``model2``: two modules (S, M) on a base fold: TPC at the base, SPC between them,
@@ -9,7 +10,7 @@ once, so the suite reuses four layouts through session-scoped fixtures:
 * ``model4``: the 4-module fully bistable design (no base fold).
 
 Law coefficients are traced parameters, so tubes of the same layout with other laws (e.g. a
-stiff linear helical fold) share the compiled kernels.
+stiff linear helical fold) share the JAX kernels.
 """
 
 from __future__ import annotations
@@ -35,11 +36,14 @@ import numpy as np
 import pytest
 
 import biplan  # enables JAX float64
+from biplan._compile.numba_cache import use_own_opt_level
 from biplan._compile.setup import limit_blas_threads, release_compiled_kernels
 
 # Two test workers share the two cores: BLAS on one thread each (as the CLI runs it), else
 # OpenBLAS's spinning threads slow every dense solve of the compiled core several times.
 limit_blas_threads()
+# and compile as the CLI does (LLVM -O1; NUMBA_OPT, inherited by the CLI child processes)
+use_own_opt_level()
 
 #: Geometry of the SI calibration table (MODEL.md §3, §14).
 GEOMETRY = {"radius": 2.0, "pitch": 3.6, "helical_angle": 60.0}

@@ -160,7 +160,7 @@ def test_deflated_jacobian_is_the_derivative_and_gives_the_sherman_morrison_step
     """The deflated system's Jacobian M J + r ∇Mᵀ equals central finite differences of M r, and
     its Newton step is the undeflated step d scaled by 1 / (1 − ∇η · d_q)."""
     from biplan._compile.setup import jax, jnp
-    from biplan.analysis.states.deflation import deflated_system
+    from jax_oracle.deflation import deflated_system
 
     nq = model1.n_coordinates
     roots = np.stack([s.z[:nq] for s in states1])

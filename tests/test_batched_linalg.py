@@ -1,5 +1,5 @@
 """Sequential-batching linear algebra of the JAX kernels and the Jacobian-block stability test
-(:func:`biplan.solvers.observe.kkt_min_eigenvalue`)."""
+(``jax_oracle.observe.kkt_min_eigenvalue``)."""
 
 from __future__ import annotations
 
@@ -13,8 +13,9 @@ from biplan._compile.setup import jax, jnp, kernel_options
 from biplan.model.lagrangian import kkt_jacobian
 from biplan.model.params import Load
 from biplan.model.potential import contact_gaps
-from biplan.solvers.newton import Newton, Status, solve_loop
-from biplan.solvers.observe import kkt_min_eigenvalue, observe
+from biplan.solvers.newton import Newton, Status
+from jax_oracle.newton import settings_of, solve_loop
+from jax_oracle.observe import kkt_min_eigenvalue, observe
 
 
 def test_sequential_vmap_matches_batched_linear_algebra() -> None:
@@ -50,7 +51,7 @@ def test_stability_from_the_kkt_jacobian_equals_the_fresh_hessian(model6) -> Non
     u = np.r_[0.01, 0.1] * m.tube.initial_length
     z0 = np.concatenate([seeds(m, ui, Seeding.PATTERNS) for ui in u])
     uu = np.repeat(u, len(z0) // 2)
-    settings = Newton().settings()
+    settings = settings_of(Newton())
     loop = solve_loop.compiled(m.layout)
 
     @functools.partial(jax.jit, compiler_options=kernel_options())

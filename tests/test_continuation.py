@@ -19,7 +19,7 @@ import biplan
 from biplan.model.assembly import Load
 from biplan.solvers.continuation import FULL_CONTACT_PENETRATION
 from biplan.solvers.newton import Status, make_solution
-from biplan.solvers.observe import observe_batch
+from jax_oracle.observe import observe_batch
 
 
 @pytest.fixture(scope="module")

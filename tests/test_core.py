@@ -1,4 +1,4 @@
-"""The Newton core of every solver (``solvers.core``) on small closed-form systems.
+"""The JAX Newton oracle (``jax_oracle.core``) on small closed-form systems.
 
 Its damped form (the path corrector and the time step): it converges to the root with the
 Newton iterates, the Jacobian it returns is the one at the root, a converged start costs no
@@ -13,9 +13,10 @@ import numpy as np
 import pytest
 
 from biplan._compile.setup import jax, jnp
-from biplan.solvers.core import iterate
-from biplan.solvers.core_settings import Settings, Status
-from biplan.solvers.strategies import chord, damped, minimum_norm, residual_norm
+from biplan.solvers.status import Status
+from jax_oracle.core import iterate
+from jax_oracle.settings import Settings
+from jax_oracle.strategies import chord, damped, minimum_norm, residual_norm
 
 
 def _residual(x):

@@ -473,13 +473,13 @@ def test_watchdog_reaches_the_same_equilibrium_with_fewer_residuals(model6, refe
     Fischer–Burmeister rows is so curved that the line search rejects converging full steps;
     the watchdog takes them (the design map's first load steps, docs/maps.md)."""
     from biplan._compile.setup import jnp
-    from biplan.solvers.newton import solve_loop
+    from jax_oracle.newton import settings_of, solve_loop
 
     load = Load(jnp.asarray(0.1), jnp.asarray(0.0), jnp.asarray(0.0))
     z0 = jnp.asarray(reference6.z)
     out = {}
     for free in (0, 8):
-        settings = Newton(max_backtracks=12, free_steps=free).settings()
+        settings = settings_of(Newton(max_backtracks=12, free_steps=free))
         out[free] = solve_loop.compiled(model6.layout)(model6.params, z0, load, settings)[0]
         assert int(out[free].status) == Status.CONVERGED.value
     n = model6.n_coordinates
@@ -493,13 +493,13 @@ def test_traced_watchdog_of_length_zero_takes_the_plain_iterates(model1):
     import functools
 
     from biplan._compile.setup import jax, jnp, kernel_options
-    from biplan.solvers.newton import newton_loop, solve_loop
+    from jax_oracle.newton import newton_loop, settings_of, solve_loop
 
     plain = jax.jit(functools.partial(newton_loop, model1.layout, free_steps=0),
                     compiler_options=kernel_options(runs_often=True))  # fmt: skip
     rng = np.random.default_rng(5)
     load = Load(jnp.asarray(0.0), jnp.asarray(0.8), jnp.asarray(1.0))
-    settings = Newton(max_steps=40, free_steps=0).settings()
+    settings = settings_of(Newton(max_steps=40, free_steps=0))
     for _ in range(4):
         z0 = jnp.asarray(model1.pack(rng.normal(scale=0.3, size=model1.n_coordinates)))
         a = solve_loop.compiled(model1.layout)(model1.params, z0, load, settings)[0]

@@ -184,3 +184,29 @@ def test_blas_threads_are_the_users_until_biplan_runs_its_own_process():
     bad = _probe(BIPLAN_BLAS_THREADS="zero")
     assert bad.returncode != 0
     assert "invalid BIPLAN_BLAS_THREADS = 'zero'" in bad.stderr
+
+
+_OPT_PROBE = (
+    "import os, biplan.model.assembly\n"
+    "from numba.core import config\n"
+    "before = int(config.OPT)\n"
+    "from biplan._compile.numba_cache import use_own_opt_level\n"
+    "use_own_opt_level()\n"
+    "print(before, int(config.OPT), os.environ.get('NUMBA_OPT'))\n"
+)
+
+
+def test_numba_opt_level_is_the_users_until_biplan_runs_its_own_process():
+    """Importing the model leaves Numba's optimisation level alone (-O3, Numba's default); the
+    CLI's use_own_opt_level compiles at -O1 and says so to child processes (NUMBA_OPT); a
+    NUMBA_OPT the user set is kept."""
+    env = {k: v for k, v in os.environ.items() if k != "NUMBA_OPT"}
+    out = subprocess.run(
+        [sys.executable, "-c", _OPT_PROBE], env=env, capture_output=True, text=True
+    )
+    assert out.stdout.split() == ["3", "1", "1"], out.stderr[-2000:]
+    user = subprocess.run(
+        [sys.executable, "-c", _OPT_PROBE], env=dict(env, NUMBA_OPT="2"), capture_output=True,
+        text=True,
+    )  # fmt: skip
+    assert user.stdout.split() == ["2", "2", "2"], user.stderr[-2000:]

@@ -1,5 +1,5 @@
 """The compiled observation (:mod:`biplan.solvers.observation`, Numba) equals the JAX one
-(:func:`biplan.solvers.observe.observe_batch`) on states of the semi-bistable and the fully
+(``jax_oracle.observe.observe_batch``) on states of the semi-bistable and the fully
 bistable design: at rest, under displacement control before, inside and past the snaps
 (unstable states and contact-locked ones included) and under force control; and its batched,
 parallel kernel equals the one-state kernel fed the solver's Jacobian."""
@@ -12,7 +12,7 @@ import pytest
 import biplan
 from biplan.model.params import Load
 from biplan.solvers import observation
-from biplan.solvers.observe import Observation, kkt_min_eigenvalue, observe_batch
+from jax_oracle.observe import Observation, kkt_min_eigenvalue, observe_batch
 
 #: Displacements [mm] of the semi-bistable path (warm-started in turn from the reference).
 PATH = (0.5, 1.0, 1.5, 2.0, 2.5, 3.0, 3.5, 4.0, 4.5, 5.0)

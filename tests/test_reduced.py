@@ -168,7 +168,7 @@ def test_observation_at_rest_equals_the_general_one_at_zero_load(model4) -> None
     from biplan.analysis.states.labels import bistable_folds
     from biplan.analysis.states.seeding import relax_seeds, seed_bits, seed_targets
     from biplan.model.params import Load
-    from biplan.solvers.observe import observe_batch
+    from jax_oracle.observe import observe_batch
 
     lay, p = model4.layout, model4.params
     folds = bistable_folds(model4.tube)

@@ -18,8 +18,7 @@ from biplan.model.assembly import Model
 from biplan.model.params import Load
 from biplan.solvers import batch, iteration
 from biplan.solvers.newton import Newton, Status, solve_equilibrium
-from biplan.solvers.observation import observe
-from biplan.solvers.observe import ACTIVE_GAP
+from biplan.solvers.observation import ACTIVE_GAP, observe
 
 #: The stability map's seed solves (StabilitySearch: 15 steps, 4 halvings).
 SEARCH = Newton(max_steps=15, max_backtracks=4)

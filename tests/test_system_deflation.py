@@ -1,7 +1,7 @@
 """Deflation on the compiled system (:mod:`biplan.solvers.deflated_loop`).
 
 Oracles: the JAX deflated system and Newton it replaced
-(:func:`biplan.analysis.states.deflation.deflated_system`, ``deflated_loop``): the same
+(``jax_oracle.deflation``: ``deflated_system``, ``deflated_loop``): the same
 residual and Jacobian, the same runs (status, root) and the same roots found by
 :func:`~biplan.analysis.states.deflation.deflate`; the Newton core of the JAX kernel driven
 through callbacks to the compiled deflated system (the same iterates); central finite
@@ -19,9 +19,11 @@ from biplan.analysis.stability import classify
 from biplan.analysis.states import deflation
 from biplan.analysis.states.deflation import Deflation, deflate
 from biplan.solvers import deflated_loop
-from biplan.solvers.core import iterate
-from biplan.solvers.core_settings import Settings, Status
 from biplan.solvers.iteration import settings_array
+from biplan.solvers.status import Status
+from jax_oracle import deflation as jax_deflation
+from jax_oracle.core import iterate
+from jax_oracle.settings import Settings
 
 CFG = Deflation(n_perturbations=6)
 
@@ -55,8 +57,8 @@ def starts(model1, known, found):
 
 
 def _jax_system(model, roots):
-    padded, mask = deflation._padded(list(roots))
-    return deflation.deflated_system(
+    padded, mask = jax_deflation.padded(list(roots))
+    return jax_deflation.deflated_system(
         model.layout, model.params, jnp.asarray(padded), jnp.asarray(mask), 2.0, 1.0
     )
 
@@ -112,7 +114,7 @@ def test_deflated_jacobian_and_log_m_are_their_derivatives(model1, known, rng):
 
 
 def _core_newton(d, roots, n: int, cfg: Deflation):
-    """The JAX kernel's deflated Newton (:func:`biplan.solvers.core.iterate`, converged on the
+    """The JAX kernel's deflated Newton (jax_oracle.core.iterate`, converged on the
     undeflated residual) driven through callbacks to the compiled deflated system and NumPy's
     solve (the Levenberg–Marquardt solves stay JAX's): the loop of the JAX kernel on the same
     numbers (jitted, of z (n,))."""
@@ -164,8 +166,8 @@ def test_deflated_newton_takes_the_jax_iterates(model1, known, starts):
     roots = known[:, :4]
     settings = settings_array(CFG.tolerance, CFG.max_steps, deflation.BACKTRACKS, 1e-4, 0)
     core = _core_newton(d, roots, len(starts[0]), CFG)
-    padded, mask = deflation._padded(list(roots))
-    kernel = deflation.deflated_loop.compiled(model1.layout)
+    padded, mask = jax_deflation.padded(list(roots))
+    kernel = jax_deflation.deflated_loop.compiled(model1.layout)
     jax_settings = Settings.of(CFG.tolerance, CFG.max_steps, deflation.BACKTRACKS)
     outcomes = []
     for z0 in starts:
@@ -186,11 +188,11 @@ def test_deflated_newton_takes_the_jax_iterates(model1, known, starts):
 
 
 def test_deflate_finds_the_jax_roots(model1, known, found, monkeypatch):
-    kernel = deflation.deflated_loop.compiled(model1.layout)
+    kernel = jax_deflation.deflated_loop.compiled(model1.layout)
     jax_settings = Settings.of(CFG.tolerance, CFG.max_steps, deflation.BACKTRACKS)
 
     def jax_run(system, z0, roots, cfg):
-        padded, mask = deflation._padded(roots)
+        padded, mask = jax_deflation.padded(roots)
         z, status, res = kernel(
             model1.params, jnp.asarray(z0), padded, mask, 2.0, 1.0, jax_settings
         )

@@ -1,6 +1,6 @@
 """The compiled dynamics (:mod:`biplan.model.system.inertia`, :mod:`biplan.solvers.step_loop`)
 equal the JAX dynamics (:mod:`biplan.model.inertia`, the JAX time loop of
-``tests/_jax_dynamics.py``), under every chain reading.
+``tests/jax_oracle/dynamics.py``), under every chain reading.
 
 * the quadrature points, their Jacobians and velocity-quadratic terms, the weights, the mass
   matrix, the inertia force, the kinetic energy and the exact derivative of the inertia rows of
@@ -27,7 +27,6 @@ import sys
 import numpy as np
 import pytest
 
-import _jax_dynamics
 import biplan
 from biplan._compile.setup import jax, jnp, kernel_options
 from biplan.geometry.layout import TubeLayout
@@ -38,6 +37,7 @@ from biplan.options import ChainAttachment, ChainOffset, ModelOptions
 from biplan.solvers import BackwardEuler, ControlKind, iteration
 from biplan.solvers.dynamics import mass_matrix_at
 from conftest import make_tube
+from jax_oracle import dynamics as _jax_dynamics
 
 TOL = 1e-10
 

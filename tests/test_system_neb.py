@@ -1,7 +1,7 @@
 """The nudged elastic band on the compiled system (:mod:`biplan.solvers.band_loop`,
 :mod:`biplan.solvers.manifold`).
 
-Oracles: the JAX kernel it replaced (``biplan.analysis.states._nebkernel``: the return to the
+Oracles: the JAX kernel it replaced (``jax_oracle.neb``: the return to the
 manifold, the band forces and the whole relaxation take the same iterates up to rounding),
 the JAX Newton refinement of the JAX band's climbing image (the same barriers), central finite
 differences of the constraint rows, and the invariants of a relaxed band (on the manifold,
@@ -16,13 +16,14 @@ import pytest
 import biplan
 from biplan._compile.setup import jax, jnp
 from biplan.analysis.stability import classify
-from biplan.analysis.states import _nebkernel
 from biplan.analysis.states.barriers import NudgedElasticBand, minimum_energy_path
 from biplan.model.params import Load
 from biplan.solvers import band_loop, manifold
-from biplan.solvers.core import iterate
-from biplan.solvers.core_settings import Settings
-from biplan.solvers.newton import Status, make_solution, solve_loop
+from biplan.solvers.newton import Status, make_solution
+from jax_oracle import neb as _nebkernel
+from jax_oracle.core import iterate
+from jax_oracle.newton import settings_of, solve_loop
+from jax_oracle.settings import Settings
 
 
 def _stable(model: biplan.Model, q0: np.ndarray) -> np.ndarray:
@@ -75,7 +76,7 @@ def test_constants_are_the_jax_kernels():
 
 
 def _core_return(d, n: int):
-    """The JAX kernel's return (:func:`biplan.solvers.core.iterate`, minimum-norm steps, no
+    """The JAX kernel's return (jax_oracle.core.iterate`, minimum-norm steps, no
     Levenberg–Marquardt, the watchdog) driven through callbacks to the compiled constraints and
     pseudo-inverse: the loop of the JAX kernel on the same numbers (jitted, of q (n,))."""
     m = int(d.sizes[1] + d.sizes[2])
@@ -217,7 +218,7 @@ def test_barriers_equal_the_refined_jax_band(model1, n_images):
     z0 = model1.pack(np.asarray(ref.q)[top], np.asarray(ref.guide_multipliers)[top])
     load = Load.of_force(0.0)
     out, _ = solve_loop.compiled(model1.layout)(
-        model1.params, jnp.asarray(z0), load.for_kernel(), neb.refine.settings()
+        model1.params, jnp.asarray(z0), load.for_kernel(), settings_of(neb.refine)
     )
     assert int(out.status) == Status.CONVERGED.value
     z = np.asarray(out.z)

@@ -1,5 +1,5 @@
 """The compiled Newton (:mod:`biplan.solvers.iteration`) takes the same iterates as the JAX
-Newton core (:func:`biplan.solvers.core.machine`): same status, same step count, the same
+Newton core (jax_oracle.core.machine`): same status, same step count, the same
 solution to round-off; and :func:`biplan.solve_equilibrium` returns the compiled system's
 state data (energies, endpoint, Hessian, constraint rows) equal to the JAX model's."""
 
@@ -11,7 +11,7 @@ import pytest
 import biplan
 from biplan.model.params import Load
 from biplan.solvers import iteration
-from biplan.solvers.newton import solve_loop
+from jax_oracle.newton import settings_of, solve_loop
 
 CASES = {
     "displacement 1 mm": (Load(0.0, 1.0, 1.0), {}),
@@ -35,7 +35,7 @@ def test_compiled_newton_takes_the_jax_iterates(model6, reference6, case):
         system.data, system.load, reference6.z, s, iteration.NO_BORDER, 0.0, iteration.NO_STEP
     )
     out, _ = solve_loop.compiled(model6.layout)(
-        model6.params, reference6.z, load.for_kernel(), method.settings()
+        model6.params, reference6.z, load.for_kernel(), settings_of(method)
     )
     assert status == int(out.status)
     assert steps == int(out.steps)

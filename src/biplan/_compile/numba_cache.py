@@ -12,9 +12,13 @@ kernels call across modules (the Newton calls the assembly, which calls the elem
   cache, so no kernel is served with another module's old code;
 * the folder is created when the first compiled kernel is saved, never at import.
 
-Nothing else of Numba's configuration is touched: other packages' functions are cached as Numba
-decides. :func:`is_warm` tells whether the kernels of this install are compiled already (the
-first use after an install compiles them once, a few minutes).
+Nothing else of Numba's configuration is touched on import: other packages' functions are cached
+as Numba decides. In processes that are biplan's own (the ``biplan`` command and its workers, the
+test suite), :func:`use_own_opt_level` compiles at LLVM -O1 instead of Numba's -O3 unless
+``NUMBA_OPT`` is set: the one-time compile takes about a fifth less time and the compiled kernels
+run as fast (docs/performance.md, "One-time compile"). :func:`is_warm` tells whether the kernels
+of this install are compiled already (the first use after an install compiles them once, a few
+minutes).
 """
 
 from __future__ import annotations
@@ -27,9 +31,12 @@ from typing import Any
 
 from numba.core import caching
 
-__all__ = ["BiplanLocator", "cache_dir", "fingerprint", "is_warm"]
+__all__ = ["OPT_LEVEL", "BiplanLocator", "cache_dir", "fingerprint", "is_warm", "use_own_opt_level"]
 
 _PACKAGE = Path(__file__).resolve().parent.parent
+
+#: LLVM optimisation level of the compile in biplan's own processes (:func:`use_own_opt_level`).
+OPT_LEVEL = 1
 
 
 @functools.cache
@@ -61,6 +68,22 @@ def is_warm() -> bool:
     """Whether compiled kernels of this install's sources are in the cache."""
     folder = cache_dir()
     return folder.is_dir() and any(folder.rglob("*.nbi"))
+
+
+def use_own_opt_level() -> None:
+    """Compile at LLVM -O:data:`OPT_LEVEL` in this process unless ``NUMBA_OPT`` is set.
+
+    For processes that are biplan's own (the CLI calls it first, the test suite before it
+    imports biplan; child processes inherit it); a library import never calls it. The level
+    applies to every Numba function compiled afterwards in the process; kernels already in the
+    cache are loaded whatever level compiled them (their results are the same: no fast-math).
+    """
+    if "NUMBA_OPT" in os.environ:
+        return
+    os.environ["NUMBA_OPT"] = str(OPT_LEVEL)
+    from numba.core import config
+
+    config.reload_config()
 
 
 class BiplanLocator(caching._CacheLocator):

@@ -3,8 +3,8 @@
 :func:`configure` (run once, when this module is first imported by biplan's numerical core;
 ``import biplan`` alone does not import it) enables ``jax_enable_x64`` (all energies are
 float64) and points JAX's persistent compilation cache at ``$BIPLAN_JAX_CACHE`` (default
-``~/.cache/biplan/jax``) so that kernels compiled in one process are reused by the next
-(cold-start time is user time).
+``$XDG_CACHE_HOME/biplan/jax``, ``~/.cache/biplan/jax`` without it) so that kernels compiled
+in one process are reused by the next (cold-start time is user time).
 Set ``BIPLAN_JAX_CACHE=off`` to disable the cache. Reads and writes of the cache are file-locked
 (``filelock``), so processes running at once (Dask workers, test workers) can share it.
 
@@ -119,8 +119,8 @@ def configure() -> None:
     * limits the BLAS threads (module docstring; ``BIPLAN_BLAS_THREADS``, default 1);
     * turns on float64 (``jax_enable_x64``): every biplan energy is float64;
     * points JAX's persistent compilation cache at ``$BIPLAN_JAX_CACHE`` (default
-      ``~/.cache/biplan/jax``; ``off`` disables it), unless the user configured a cache
-      directory of their own.
+      ``$XDG_CACHE_HOME/biplan/jax``, else ``~/.cache/biplan/jax``; ``off`` disables it),
+      unless the user configured a cache directory of their own.
     """
     global CACHE_DIR, _CONFIGURED
     if _CONFIGURED:
@@ -138,7 +138,8 @@ def configure() -> None:
     os.environ["XLA_FLAGS"] = flags.strip()
     limit_blas_threads()
     jax.config.update("jax_enable_x64", True)
-    cache = os.environ.get("BIPLAN_JAX_CACHE", str(Path.home() / ".cache" / "biplan" / "jax"))
+    user_cache = os.environ.get("XDG_CACHE_HOME") or str(Path.home() / ".cache")
+    cache = os.environ.get("BIPLAN_JAX_CACHE", str(Path(user_cache) / "biplan" / "jax"))
     if cache.lower() in {"", "0", "off", "none"} or getattr(
         jax.config, "jax_compilation_cache_dir", None
     ):

@@ -76,9 +76,11 @@ def _root(
     ] = False,
 ) -> None:
     """BiPlan simulation of multistable Mixed Folded Tubes (units: mm, N, s)."""
+    from biplan._compile.numba_cache import use_own_opt_level
     from biplan._compile.setup import limit_blas_threads
 
     limit_blas_threads()  # this process is biplan's own: BLAS on $BIPLAN_BLAS_THREADS threads
+    use_own_opt_level()  # and its one-time compile at LLVM -O1 unless NUMBA_OPT is set
 
 
 def main(argv: list[str] | None = None) -> None:

@@ -19,7 +19,7 @@ states and stay fixed. :func:`relax_band` runs the whole optimisation:
 
 Convergence: max |F| over the interior images below the tolerance, with the climbing image on.
 The algorithm, its constants and its iterates are those of the JAX kernel it replaces
-(``biplan.analysis.states._nebkernel``), up to rounding.
+(the tests' oracle ``tests/jax_oracle/neb.py``), up to rounding.
 """
 
 from __future__ import annotations

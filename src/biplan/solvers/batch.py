@@ -8,7 +8,7 @@ and laws, so a map groups its tasks by point (:mod:`biplan.analysis.maps`).
   globalised Newton (:func:`biplan.solvers.iteration.newton`), in parallel blocks of tasks
   (:mod:`biplan.solvers.lanes`): the stability map's seeds and continuation steps;
 * :func:`chord` — chord (modified Newton) iterates with a fixed Jacobian
-  (:func:`biplan.solvers.strategies.chord`);
+  (the tests compare it with their JAX oracle);
 * :func:`ramp` — the design map's quasi-static force ramp of one design: per load step a
   chord start with the previous equilibrium's Jacobian, finished by the Newton and observed
   (:func:`biplan.solvers.observation.observe_state`) from the Jacobian the Newton ends with
@@ -28,9 +28,9 @@ from numba import njit
 from biplan.model.system import assemble
 from biplan.model.system.tables import SystemData
 from biplan.solvers import lanes
-from biplan.solvers.core_settings import Status
 from biplan.solvers.iteration import newton
 from biplan.solvers.observation import observe_state
+from biplan.solvers.status import Status
 
 __all__ = ["chord", "ramp", "solve_tasks"]
 
@@ -112,8 +112,8 @@ def chord(
 ) -> np.ndarray:
     """Chord (modified Newton) iterates z ← z − J⁻¹ r(z) with the fixed Jacobian ``jac``
     until ‖r‖∞ < atol or ``iterations`` steps; the iterate of smallest ‖r‖∞ (z itself when
-    every step made it worse or non-finite): the compiled
-    :func:`biplan.solvers.strategies.chord`. Each step solves with LAPACK's LU of ``jac``
+    every step made it worse or non-finite), as the JAX chord of the tests'
+    oracle. Each step solves with LAPACK's LU of ``jac``
     (refactored per step, a few µs at these sizes; the same iterates to round-off).
 
     Parameters

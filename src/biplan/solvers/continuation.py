@@ -18,8 +18,8 @@ Steps adapt: a corrector that fails (no convergence in ``max_iterations``) halve
 (:mod:`biplan.solvers.observation`): end force, u_z, u_r, θ, energy by fold, phase fractions, the
 smallest reduced-Hessian eigenvalue and stability. Where that eigenvalue changes sign between
 two steps, the crossing is located by repeated multisection (bisection generalised to
-``CHUNK − 1`` interior points per round) on the secant between them, and recorded as a limit
-point (Λ has an extremum there) or a bifurcation.
+``MULTISECTION_POINTS`` interior points per round) on the secant between them, and recorded as
+a limit point (Λ has an extremum there) or a bifurcation.
 """
 
 from __future__ import annotations
@@ -33,7 +33,7 @@ from biplan.model.assembly import Model
 from biplan.solvers import lanes, observation, path_loop
 from biplan.solvers.control import Control
 from biplan.solvers.newton import Newton, Solution, solve_equilibrium
-from biplan.solvers.observe import CHUNK, STABILITY_TOL, Observation
+from biplan.solvers.observation import STABILITY_TOL, Observation
 from biplan.solvers.path_results import Critical, EquilibriumPath, Event, PathStats, PathStatus
 
 __all__ = ["ArcLength", "LoadStepping", "trace_path"]
@@ -43,6 +43,8 @@ __all__ = ["ArcLength", "LoadStepping", "trace_path"]
 #: by c λ_∂; a path that needs more (λ_∂ ≥ 10 N at c = 1e-6 mm/N) is pressing a tube that is
 #: closed solid and stops there with ``PathStatus.FULL_CONTACT``.
 FULL_CONTACT_PENETRATION = 1e-5
+#: Interior points of a multisection round of the event location (corrected in parallel).
+MULTISECTION_POINTS = 16
 
 
 @dataclass(frozen=True)
@@ -368,7 +370,7 @@ def _locate(
     lo, hi = 0.0, 1.0
     best: tuple[np.ndarray, float, float] | None = None
     for _ in range(12):
-        alpha = np.linspace(lo, hi, CHUNK + 2)[1:-1]
+        alpha = np.linspace(lo, hi, MULTISECTION_POINTS + 2)[1:-1]
         dz, dl = zb - za, lb - la
         row_z = np.zeros_like(za)
         row_z[:nq] = dz[:nq]

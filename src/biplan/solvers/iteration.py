@@ -1,6 +1,6 @@
 """The compiled Newton iteration on a :class:`~biplan.model.system.System` (Numba; MODEL §11).
 
-The same globalised Newton as :func:`biplan.solvers.core.machine` (one trial point a pass):
+The same globalised Newton as the JAX oracle of the tests (one trial point a pass):
 Armijo backtracking on the merit ½‖R‖², a Levenberg–Marquardt fallback with adaptive damping
 once the halvings are spent (or when the Newton system is singular; with the fallback off such
 a search ends the solve, the plain damped Newton of the path corrector), and the watchdog of
@@ -36,7 +36,7 @@ from biplan.model.system.chainterm import load_point
 from biplan.model.system.inertia import add_inertia
 from biplan.model.system.tables import SystemData
 from biplan.solvers.bordered import _full_order, dense_solve, direction, fits, lm_solve
-from biplan.solvers.core_settings import Status
+from biplan.solvers.status import Status
 
 __all__ = [
     "ESCAPE",

@@ -7,8 +7,8 @@ pulls a point q back onto it by minimum-norm Gauss–Newton steps on the rectang
 
 (penetrated contacts to zero gap, open ones left alone), the step dq = −J⁺ c by the
 pseudo-inverse (:func:`pinv`, singular values below 10⁻¹⁰ of the largest dropped). It is the
-iteration that the Newton core (:func:`biplan.solvers.core.iterate` with
-:func:`~biplan.solvers.strategies.minimum_norm`, no Levenberg–Marquardt, one halving,
+iteration that the JAX Newton of the tests' oracle (minimum-norm steps, no
+Levenberg–Marquardt, one halving,
 watchdog of :data:`ITERATIONS` free steps) takes on that system, written out:
 
 * the start is the first trial point; a trial is accepted whenever it is finite (the free

@@ -1,10 +1,10 @@
 """Equilibrium solves of the KKT system of a constrained, contact-regularised tube (MODEL §11).
 
 ``solve_equilibrium(model, Newton(...), start, load)`` solves r(z) = 0 for z = [q, λ, λ_∂, μ]
-with the Newton core (:mod:`biplan.solvers.core`: Armijo backtracking on ½‖r‖², a
-Levenberg–Marquardt fallback, the watchdog). :class:`Newton` configures it; the whole solve
-is one ``jax.lax.while_loop`` compiled once per tube layout (tolerances and limits are
-traced), so it is cheap to call repeatedly and ``vmap``-able.
+with the one compiled Newton (:func:`biplan.solvers.iteration.newton`: Armijo backtracking on
+½‖r‖², a Levenberg–Marquardt fallback, the watchdog) on the model's
+:class:`~biplan.model.system.System`. :class:`Newton` configures it; its tolerances and limits
+are data, so one compiled kernel serves every tube and every :class:`Newton`.
 """
 
 from __future__ import annotations
@@ -14,21 +14,15 @@ from typing import Any
 
 import numpy as np
 
-from biplan._compile.kernel import kernel
-from biplan._compile.setup import jax
 from biplan._errors import ConfigError, ConvergenceError, check_integer, check_range
-from biplan.geometry.layout import TubeLayout
-from biplan.model.assembly import Load, Model, kernels
-from biplan.model.lagrangian import StateData, state_from_jacobian
+from biplan.model.assembly import Load, Model
+from biplan.model.lagrangian import StateData
 from biplan.model.system import System
 from biplan.solvers import iteration
-from biplan.solvers.core import LoopState, machine
-from biplan.solvers.core_settings import Settings, Status
 from biplan.solvers.iteration import settings_array
+from biplan.solvers.status import Status
 
 __all__ = ["Newton", "Solution", "Status", "relaxed_reference", "solve_equilibrium"]
-
-Array = Any
 
 
 @dataclass(frozen=True)
@@ -84,68 +78,6 @@ class Newton:
         )
         if not isinstance(self.contact_restart, bool):
             raise ConfigError("Newton.contact_restart", self.contact_restart, "True or False")
-
-    def settings(self) -> Settings:
-        """The traced settings of the compiled iteration (:class:`.core.Settings`)."""
-        return Settings.of(
-            self.atol, self.max_steps, self.max_backtracks, self.armijo, self.free_steps
-        )
-
-
-def newton_machine(
-    layout: TubeLayout,
-    params: Any,
-    load: Load,
-    settings: Settings,
-    line_search_loop: bool = False,
-    free_steps: int | None = 0,
-    axis_name: str | None = None,
-) -> tuple:
-    """:func:`biplan.solvers.core.machine` on the model's KKT system r(z) = 0 at ``load``
-    (its residual and KKT Jacobian, :func:`biplan.model.assembly.kernels`)."""
-    k = kernels(layout)
-    return machine(
-        lambda z: k.residual(params, z, load),
-        lambda z: k.jacobian(params, z, load),
-        settings,
-        line_search_loop=line_search_loop,
-        free_steps=free_steps,
-        axis_name=axis_name,
-    )
-
-
-def newton_loop(
-    layout: TubeLayout,
-    params: Any,
-    z0: Array,
-    load: Load,
-    settings: Settings,
-    line_search_loop: bool = False,
-    free_steps: int | None = 0,
-    axis_name: str | None = None,
-) -> LoopState:
-    """Pure (jit/vmap-able) globalised Newton iteration (:func:`newton_machine`): Newton steps
-    with an Armijo line search on ½‖r‖² that falls back to Levenberg–Marquardt steps with
-    growing damping; one residual evaluation site (the line search) and one Jacobian
-    evaluation site (the accepted point), so that the compiled graph is small.
-    """
-    init, body, cond, finish = newton_machine(
-        layout, params, load, settings, line_search_loop, free_steps, axis_name
-    )
-    return finish(jax.lax.while_loop(cond, body, init(z0)))
-
-
-@kernel("newton_loop", runs_often=True)
-def solve_loop(
-    layout: TubeLayout, params: Any, z0: Array, load: Load, settings: Settings
-) -> tuple[LoopState, StateData]:
-    """:func:`newton_loop` (watchdog length traced) and the :class:`StateData` of its last
-    iterate, taken from the Jacobian the loop evaluated there (no second assembly; valid once
-    the loop accepted a pass, i.e. its merit ``f`` is finite). ``solve_loop.compiled(layout)``
-    is the kernel of :func:`solve_equilibrium`; the watchdog length is traced, so every
-    :class:`Newton` shares it."""
-    out = newton_loop(layout, params, z0, load, settings, free_steps=None)
-    return out, state_from_jacobian(layout, params, out.z, load, out.jac)
 
 
 @dataclass(frozen=True)

@@ -1,6 +1,6 @@
 """Observation of equilibrium states on the compiled system (Numba; MODEL §9, §12).
 
-The compiled counterpart of :mod:`biplan.solvers.observe`: for packed states
+For packed states
 z = [q, λ, λ_∂, μ] and their loads (F [N], U [mm], d), with the tube's layout as data
 (:class:`~biplan.model.system.SystemData`), it computes what a path or trajectory records per
 step:
@@ -20,17 +20,17 @@ step:
   max(−w_∂, 0) [mm].
 
 K and the constraint rows are read off the state's KKT Jacobian (its top-left block K, its
-top-right columns Gᵀ, −Cᵀ and d·a, as :func:`biplan.solvers.observe.kkt_min_eigenvalue`).
-N is computed as in the JAX kernel: A (active rows) = U Σ Vᵀ, the rows of Vᵀ past the
-numerical rank (singular values ≤ 1e-9 σ_max) span the null space; here H_r is formed on
-them directly and its smallest eigenvalue taken (``numpy.linalg.eigvalsh``), which equals the
-JAX kernel's shifted-matrix eigenvalue exactly (its shift lies above every eigenvalue of H_r).
+top-right columns Gᵀ, −Cᵀ and d·a). With A (active rows) = U Σ Vᵀ, the rows of Vᵀ past the
+numerical rank (singular values ≤ 1e-9 σ_max) span the null space N; H_r is formed on them
+and its smallest eigenvalue taken (``numpy.linalg.eigvalsh``). The tests compare it with the
+JAX oracle (``tests/jax_oracle/observe.py``), which shifts the complement above every
+eigenvalue of H_r instead.
 λ_min = +∞ when no direction is left (dim N = 0: a contact-locked state).
 
 :func:`observe_state` observes one state from its Jacobian (what a Newton solve ends with),
 :func:`observe_rows` a block of a batch, assembling each Jacobian (the blocks run in
 parallel, :mod:`biplan.solvers.lanes`); :func:`observe` is the Python entry point that
-returns an :class:`~biplan.solvers.observe.Observation` of NumPy arrays.
+returns an :class:`Observation` of NumPy arrays.
 """
 
 from __future__ import annotations
@@ -51,6 +51,8 @@ __all__ = [
     "ACTIVE_MULTIPLIER",
     "PARALLEL_MIN_STATES",
     "RANK_RTOL",
+    "STABILITY_TOL",
+    "Observation",
     "min_reduced_eigenvalue",
     "observe",
     "observe_rows",
@@ -58,12 +60,13 @@ __all__ = [
     "phase_fractions",
 ]
 
-#: A contact is active when its multiplier exceeds this [N] and its gap is below ACTIVE_GAP [mm]
-#: (the values of :mod:`biplan.solvers.observe`).
+#: A contact is active when its multiplier exceeds this [N] and its gap is below ACTIVE_GAP [mm].
 ACTIVE_MULTIPLIER = 1e-6
 ACTIVE_GAP = 1e-4
 #: Relative SVD rank tolerance of the active-constraint Jacobian.
 RANK_RTOL = 1e-9
+#: λ_min(H_r) above this is stable, below −STABILITY_TOL unstable, critical in between.
+STABILITY_TOL = 1e-8
 #: :func:`observe` gives a thread to every this many states (:mod:`biplan.solvers.lanes`).
 PARALLEL_MIN_STATES = 8
 
@@ -300,7 +303,7 @@ def observe_state(
     Returns
     -------
     tuple
-        The fields of :class:`~biplan.solvers.observe.Observation`: force [N], displacement
+        The fields of :class:`Observation`: force [N], displacement
         z_p [mm], u_z [mm], u_r [mm], θ [rad], energy [N·mm], fold energies (N + Nc,)
         [N·mm], phase fractions (N + Nc, 3), λ_min [N/mm] (+∞ when dim N = 0), dim N,
         active contacts, max |g| [mm], penetration [mm].
@@ -416,7 +419,7 @@ def observe(
     Returns
     -------
     Observation
-        :class:`biplan.solvers.observe.Observation` of NumPy arrays with leading axis k.
+        :class:`Observation` of NumPy arrays with leading axis k.
     """
     source = system_or_data
     zs = np.ascontiguousarray(np.atleast_2d(np.asarray(zs, dtype=float)))

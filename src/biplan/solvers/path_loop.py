@@ -22,8 +22,8 @@ import numpy as np
 from numba import njit
 
 from biplan.model.system.tables import SystemData
-from biplan.solvers.core_settings import Status
 from biplan.solvers.iteration import NO_STEP, newton
+from biplan.solvers.status import Status
 
 __all__ = [
     "COMPLETED",

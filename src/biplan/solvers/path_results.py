@@ -18,7 +18,7 @@ import numpy as np
 from biplan._errors import ResultStatus
 from biplan.model.assembly import Model
 from biplan.solvers.control import Control
-from biplan.solvers.observe import Observation
+from biplan.solvers.observation import Observation
 from biplan.solvers.results import OBSERVABLES, LabelledResult, display_units, observables
 
 __all__ = ["Critical", "EquilibriumPath", "Event", "PathStats", "PathStatus", "Snap"]

@@ -2,7 +2,7 @@
 
 :class:`~biplan.solvers.path_results.EquilibriumPath` (one entry per equilibrium step) and
 :class:`~biplan.solvers.trajectory_results.Trajectory` (one entry per saved time) share the
-observables of :class:`~biplan.solvers.observe.Observation` (:data:`OBSERVABLES`, built by
+observables of :class:`~biplan.solvers.observation.Observation` (:data:`OBSERVABLES`, built by
 :func:`observables`) and convert to an ``xarray.Dataset`` with
 :meth:`LabelledResult.to_dataset` (dims ``step`` or ``time``; ``coordinate``, ``fold``,
 ``phase``; units in each variable's ``units`` attribute, :data:`UNITS`).
@@ -18,7 +18,7 @@ import numpy as np
 
 from biplan.model.assembly import Model
 from biplan.solvers.control import Control
-from biplan.solvers.observe import STABILITY_TOL, Observation
+from biplan.solvers.observation import STABILITY_TOL, Observation
 
 __all__ = [
     "ENERGY_BALANCE",

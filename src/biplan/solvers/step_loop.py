@@ -31,8 +31,8 @@ from numba import njit
 from biplan.model.system.assemble import observe
 from biplan.model.system.inertia import kinetic_and_work, kinetic_energy, step_data
 from biplan.model.system.tables import SystemData
-from biplan.solvers.core_settings import Status
 from biplan.solvers.iteration import NO_BORDER, newton
+from biplan.solvers.status import Status
 
 __all__ = ["CHUNK_STEPS", "COMPLETED", "STEP_FAILED", "step", "trajectory"]
 

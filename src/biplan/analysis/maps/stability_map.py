@@ -63,7 +63,7 @@ from biplan.analysis.maps.stability_seeds import pushing, seeds
 from biplan.analysis.maps.stability_solve import CompiledTasks, solve_and_observe
 from biplan.model.assembly import Model
 from biplan.model.tube import Tube
-from biplan.solvers.observe import STABILITY_TOL
+from biplan.solvers.observation import STABILITY_TOL
 
 __all__ = [
     "StabilityEvaluator",

@@ -18,7 +18,7 @@ import numpy as np
 from biplan._errors import ConfigError, check_integer, check_range
 from biplan.analysis.maps.stability_seeds import MAX_SUBSET_FOLDS, Seeding
 from biplan.solvers.newton import Newton
-from biplan.solvers.observe import STABILITY_TOL
+from biplan.solvers.observation import STABILITY_TOL
 
 __all__ = [
     "MAX_SUBSET_FOLDS",

@@ -19,7 +19,7 @@ import numpy as np
 from biplan.model.assembly import Model
 from biplan.model.system import assemble
 from biplan.model.tube import Tube
-from biplan.solvers.observe import ACTIVE_GAP
+from biplan.solvers.observation import ACTIVE_GAP
 
 __all__ = [
     "PRESS",

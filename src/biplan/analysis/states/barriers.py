@@ -9,8 +9,8 @@ tube (guides g(q) = 0, contact gaps w_∂(q) ≥ 0):
 2. the band is relaxed by FIRE with constraint-projected NEB forces and, once the forces are
    small, a climbing image (Henkelman, Uberuaga & Jónsson 2000): the compiled loop
    :func:`biplan.solvers.band_loop.relax_band` on the model's System at rest (Numba, compiled
-   once for every tube; the JAX kernel it replaced, :mod:`biplan.analysis.states._nebkernel`,
-   stays as its test oracle);
+   once for every tube; the JAX kernel it replaced is the tests' oracle,
+   ``tests/jax_oracle/neb.py``);
 3. the climbing image, with its least-squares multipliers, starts a Newton solve of the full KKT
    system at zero load (:func:`biplan.solvers.iteration.newton`, contact by the smoothed
    Fischer–Burmeister function), which converges to the nearby stationary point; its reduced

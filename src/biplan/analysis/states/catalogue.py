@@ -21,7 +21,7 @@ from biplan._errors import check_integer, check_range
 from biplan.geometry import FoldRef
 from biplan.model.assembly import Model
 from biplan.solvers.newton import Newton
-from biplan.solvers.observe import STABILITY_TOL
+from biplan.solvers.observation import STABILITY_TOL
 
 __all__ = [
     "CSV_COLUMNS",

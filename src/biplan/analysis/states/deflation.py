@@ -5,43 +5,36 @@ contact by the smoothed Fischer–Burmeister function) is multiplied by the defl
 
     M(q) = Π_i ( 1 / ‖q − q_i‖^p + σ )
 
-so that the known states are no longer roots of M r while every other root of r is. Newton on
-M r is the package's Newton on the deflated residual: with d = −J⁻¹ r the undeflated Newton
-step and η = log M, its step is d / (1 − ∇η · d_q) (Sherman–Morrison). It runs compiled on the
-model's System at rest (:func:`biplan.solvers.deflated_loop.deflated_newton`, Numba); the JAX
-kernel it replaced (:func:`deflated_loop` on the Newton core :mod:`biplan.solvers.core`) stays
-as its test oracle. Each run starts from a random perturbation of a known state (or from the
-midpoint of two), is damped by backtracking on ½‖M r‖² (Levenberg–Marquardt where that
-fails), and stops when the *undeflated* residual is below the tolerance. A new root joins the
-deflation set at once, so no root is found twice. Every root is then classified by its reduced
-Hessian (MODEL §12) and described by the phase fractions of its folds — a fold that is neither
-fully closed nor fully open is *partially transformed*.
-"""
+so that the known states are no longer roots of M r while every other root of r is. Newton on M
+r is the package's Newton on the deflated residual: with d = −J⁻¹ r the undeflated Newton step
+and η = log M, its step is d / (1 − ∇η · d_q) (Sherman–Morrison). It runs compiled on the
+model's System at rest (:func:`biplan.solvers.deflated_loop.deflated_newton`, Numba). Each run
+starts from a random perturbation of a known state (or from the midpoint of two), is damped by
+backtracking on ½‖M r‖² (Levenberg–Marquardt where that fails), and stops when the *undeflated*
+residual is below the tolerance. A new root joins the deflation set at once, so no root is found
+twice. Every root is then classified by its reduced Hessian (MODEL §12) and described by the
+phase fractions of its folds — a fold that is neither fully closed nor fully open is *partially
+transformed*."""
 
 from __future__ import annotations
 
 import numbers
-from collections.abc import Callable
 from dataclasses import dataclass, field
 from typing import Any
 
 import numpy as np
 
-from biplan._compile.kernel import kernel
-from biplan._compile.setup import jax, jnp
 from biplan._errors import ConfigError, check_integer, check_range
 from biplan.analysis.stability import classify
-from biplan.geometry.layout import TubeLayout
-from biplan.model.assembly import Load, Model, kernels
+from biplan.model.assembly import Load, Model
 from biplan.model.system import System
 from biplan.solvers import deflated_loop as compiled_loop
 from biplan.solvers import observation
-from biplan.solvers.core import iterate
-from biplan.solvers.core_settings import Settings, Status
 from biplan.solvers.iteration import settings_array
 from biplan.solvers.newton import make_solution
+from biplan.solvers.status import Status
 
-__all__ = ["Deflation", "DeflationResult", "Equilibrium", "deflate", "deflated_loop"]
+__all__ = ["Deflation", "DeflationResult", "Equilibrium", "deflate"]
 
 Array = Any
 
@@ -177,82 +170,8 @@ class DeflationResult:
         return tuple(e for e in self.equilibria if e.stable)
 
 
-#: Coordinates beyond this [mm or rad] end a deflated run (an iterate pushed off to infinity).
-ESCAPE = compiled_loop.ESCAPE
 #: Step halvings of the deflated line search.
 BACKTRACKS = 8
-#: Known states are padded to multiples of this (a kernel per bucket, not per count).
-ROOT_BUCKET = 64
-
-
-def deflated_system(
-    layout: TubeLayout, p: Any, roots: Array, mask: Array, power: Array, shift: Array
-) -> tuple[Callable[[Array], Array], Callable[[Array], Array], Callable[[Array], Array]]:
-    """(residual, jacobian, η) of the deflated system M(q) r(z) = 0 at zero end load.
-
-    ``roots`` (R, n_q) are the known states where ``mask`` is True (the others padding);
-    η(q) = log M(q). The Jacobian is M J + r ∇Mᵀ (∇M = M ∇η by autodiff of the small
-    operator), whose Newton step is the Sherman–Morrison step d / (1 − ∇η · d_q) of the module
-    docstring. A point with a coordinate beyond :data:`ESCAPE` has a NaN residual (a trial
-    point there is rejected).
-    """
-    k = kernels(layout)
-    zero = jnp.asarray(0.0)
-    load = Load(zero, zero, zero)
-    nq = layout.n_coordinates
-
-    def log_m(q: Array) -> Array:
-        d = q[None, :] - roots
-        r2 = jnp.maximum(jnp.sum(d * d, axis=1), 1e-300)
-        return jnp.sum(jnp.where(mask, jnp.log(r2 ** (-0.5 * power) + shift), 0.0))
-
-    def deflated(z: Array) -> Array:
-        out = jnp.exp(log_m(z[:nq])) * k.residual(p, z, load)
-        return jnp.where(jnp.max(jnp.abs(z[:nq])) > ESCAPE, jnp.nan, out)
-
-    def jacobian(z: Array) -> Array:
-        eta, grad = jax.value_and_grad(log_m)(z[:nq])
-        m = jnp.exp(eta)
-        r = k.residual(p, z, load)
-        g = jnp.zeros(z.shape[0]).at[:nq].set(grad)
-        return m * k.jacobian(p, z, load) + m * r[:, None] * g[None, :]
-
-    return deflated, jacobian, log_m
-
-
-@kernel("deflated_newton")
-def deflated_loop(
-    layout: TubeLayout,
-    p: Any,
-    z0: Array,
-    roots: Array,
-    mask: Array,
-    power: Array,
-    shift: Array,
-    settings: Settings,
-) -> tuple[Array, Array, Array]:
-    """Newton (:func:`biplan.solvers.core.iterate`) on the deflated system
-    (:func:`deflated_system`) from z0 (pure; jit-able). Converged when the *undeflated*
-    residual ‖M⁻¹ R‖∞ is below ``settings.atol``. Returns (z, status, ‖r‖∞ undeflated)."""
-    deflated, jacobian, log_m = deflated_system(layout, p, roots, mask, power, shift)
-    nq = layout.n_coordinates
-
-    def undeflated_converged(z: Array, r_deflated: Array) -> Array:
-        return jnp.max(jnp.abs(r_deflated)) < settings.atol * jnp.exp(log_m(z[:nq]))
-
-    out = iterate(deflated, jacobian, z0, settings, converged=undeflated_converged)
-    zero = jnp.asarray(0.0)
-    r = kernels(layout).residual(p, out.z, Load(zero, zero, zero))
-    return out.z, out.status, jnp.max(jnp.abs(r))
-
-
-def _padded(roots: list[np.ndarray]) -> tuple[np.ndarray, np.ndarray]:
-    """The roots padded to the next multiple of :data:`ROOT_BUCKET` rows, and their mask (the
-    arguments of the JAX kernel :func:`deflated_loop`)."""
-    size = ROOT_BUCKET * (len(roots) // ROOT_BUCKET + 1)
-    out = np.zeros((size, roots[0].shape[0]))
-    out[: len(roots)] = roots
-    return out, np.arange(size) < len(roots)
 
 
 def _deflated_newton(

@@ -36,8 +36,8 @@ from biplan.geometry import FoldRef
 from biplan.model.assembly import Model
 from biplan.model.tube import Tube
 from biplan.solvers import lanes, observation, relax_loop
-from biplan.solvers.core_settings import Status
 from biplan.solvers.iteration import settings_array
+from biplan.solvers.status import Status
 
 if TYPE_CHECKING:
     from biplan.analysis.maps.sweeps import ChunkSink

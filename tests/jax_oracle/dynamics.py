@@ -35,10 +35,10 @@ from biplan.model.lagrangian import kkt_jacobian, residual, sizes
 from biplan.model.params import Load, ModelParams
 from biplan.model.potential import energy, load_height
 from biplan.solvers import dynamics
-from biplan.solvers.core_settings import Status
+from biplan.solvers.status import Status
 from biplan.solvers.step_loop import CHUNK_STEPS
-from biplan.solvers.strategies import damped
 from biplan.solvers.trajectory_results import TrajectoryStatus
+from jax_oracle.strategies import damped
 
 __all__ = ["chunk", "integrate", "kinetic_energy", "run", "step"]
 

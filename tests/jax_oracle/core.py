@@ -1,22 +1,14 @@
-"""The one globalised Newton core of every biplan solver (MODEL §11).
+"""The JAX globalised Newton, kept as the oracle of the compiled one
+(:func:`biplan.solvers.iteration.newton`, MODEL §11).
 
 :func:`machine` is a Newton iteration on a square system R(z) = 0 given as two functions,
 ``residual(z)`` and ``jacobian(z)``: Armijo backtracking on the merit ½‖R‖², a
 Levenberg–Marquardt fallback with adaptive damping, and the watchdog of free steps, chosen by
-static options; the tolerances and limits are traced
-(:class:`~biplan.solvers.core_settings.Settings`), so one compiled kernel serves every
-:class:`~biplan.solvers.Newton`. Its drivers:
-
-* :func:`iterate` — the whole solve as one ``lax.while_loop`` (equilibrium, relaxation
-  polish, design-map load steps, the path corrector and the time step with
-  ``levenberg_marquardt=False``, deflated solves);
-* :mod:`biplan.solvers.strategies` — the damped Newton of the path corrector, and a chord
-  (modified Newton) start.
-
-The systems differ only in their residual: the KKT system of the model
-(:func:`biplan.solvers.newton.newton_machine`), the bordered arclength system
-(:mod:`biplan.solvers._pathkernel`) and the deflated system
-(:mod:`biplan.analysis.states.deflation`).
+static options; the tolerances and limits are traced (:class:`jax_oracle.settings.Settings`).
+:func:`iterate` runs the whole solve as one ``lax.while_loop``; :mod:`jax_oracle.strategies`
+builds the damped Newton and the chord start on it. The tests compare the compiled loops with
+it on the KKT system (:mod:`jax_oracle.newton`), the deflated system
+(:mod:`jax_oracle.deflation`) and the NEB return to the constraints (:mod:`jax_oracle.neb`).
 """
 
 from __future__ import annotations
@@ -26,7 +18,8 @@ from typing import Any, NamedTuple
 
 from biplan._compile import linalg
 from biplan._compile.setup import jax, jnp
-from biplan.solvers.core_settings import Settings, Status
+from biplan.solvers.status import Status
+from jax_oracle.settings import Settings
 
 __all__ = ["LoopState", "iterate", "machine"]
 
@@ -117,7 +110,7 @@ def machine(
     (:mod:`biplan.analysis.states.deflation`).
 
     ``solve(J, b)`` (static): the Newton direction's linear solve, default LU. With the
-    minimum-norm least-squares solve (:func:`~biplan.solvers.strategies.minimum_norm`) the
+    minimum-norm least-squares solve (:func:`~jax_oracle.strategies.minimum_norm`) the
     system may be rectangular (fewer equations than unknowns: a Gauss–Newton return to a
     constraint manifold); then
     ``n_equations`` (static) is the length of R (default: the number of unknowns — given,

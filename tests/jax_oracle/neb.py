@@ -33,9 +33,9 @@ from biplan.geometry.layout import TubeLayout
 from biplan.model.lagrangian import sizes
 from biplan.model.params import ModelParams
 from biplan.model.potential import contact_gaps, energy, guide_values
-from biplan.solvers.core import iterate
-from biplan.solvers.core_settings import Settings
-from biplan.solvers.strategies import minimum_norm
+from jax_oracle.core import iterate
+from jax_oracle.settings import Settings
+from jax_oracle.strategies import minimum_norm
 
 __all__ = ["BandOutput", "band_forces", "project", "relax_band"]
 
@@ -105,7 +105,7 @@ def _project_direction(rows: Array, v: Array) -> Array:
 def project(layout: TubeLayout, p: ModelParams, q: Array) -> Array:
     """Return one image to the constraint manifold: g(q) = 0, w_∂(q) ≥ 0 — minimum-norm
     Gauss–Newton steps on [g(q); min(w_∂(q), 0)] by the Newton core
-    (:func:`biplan.solvers.core.iterate` with :func:`~biplan.solvers.strategies.minimum_norm`):
+    (jax_oracle.core.iterate` with :func:`~jax_oracle.strategies.minimum_norm`):
     :data:`PROJECTION_ITERATIONS` full steps (the watchdog's free steps), ending at the
     iterate of smallest violation, or earlier below :data:`PROJECTION_TOLERANCE`."""
     _nq, ng, nc = sizes(layout)

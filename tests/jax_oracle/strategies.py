@@ -1,4 +1,4 @@
-"""Newton strategies built on the core (:mod:`biplan.solvers.core`).
+"""Newton strategies built on the core (:mod:`jax_oracle.core`).
 
 * :func:`damped` — the plain damped Newton of the path corrector and the time step;
 * :func:`chord` — chord (modified Newton) iterates with a Jacobian factored once (the design
@@ -15,8 +15,8 @@ from typing import Any
 
 from biplan._compile import linalg
 from biplan._compile.setup import jax, jnp
-from biplan.solvers.core import LoopState, iterate
-from biplan.solvers.core_settings import Settings
+from jax_oracle.core import LoopState, iterate
+from jax_oracle.settings import Settings
 
 __all__ = ["DAMPED_BACKTRACKS", "chord", "damped", "minimum_norm", "residual_norm"]
 
@@ -36,7 +36,7 @@ def damped(
     axis_name: str | None = None,
 ) -> LoopState:
     """The plain damped Newton of the path corrector and the time step:
-    :func:`~biplan.solvers.core.iterate` with Armijo backtracking (c = 1e-4,
+    :func:`~jax_oracle.core.iterate` with Armijo backtracking (c = 1e-4,
     :data:`DAMPED_BACKTRACKS` halvings), the Jacobian formed at accepted points only
     (``line_search_loop``) and no Levenberg–Marquardt fallback — a step that fails is cut back
     by its driver. Needed at the kinks of the piecewise-linear fold laws and of the contact
@@ -70,7 +70,7 @@ def chord(
     """Chord (modified Newton) iterates z ← z − J⁻¹ R(z) with the fixed Jacobian ``jac``
     (factored once), until ‖R‖∞ < atol or ``iterations`` steps (static); returns the iterate
     of smallest ‖R‖∞ (z itself when every step made it worse or non-finite). A start for
-    :func:`~biplan.solvers.core.iterate`: an iterate below ``atol`` is accepted by its first
+    :func:`~jax_oracle.core.iterate`: an iterate below ``atol`` is accepted by its first
     pass, which then only evaluates the Jacobian there."""
     lu, piv = linalg.lu_factor(jac)
 

@@ -1,4 +1,5 @@
-"""Batched observation of equilibrium states: endpoint, energies, phase fractions, stability.
+"""The JAX observation of equilibrium states, kept as the oracle of the compiled one
+(:mod:`biplan.solvers.observation`): endpoint, energies, phase fractions, stability.
 
 One jitted, ``vmap``-ped kernel per tube layout evaluates, for a chunk of packed states
 z = [q, λ, λ_∂, μ] and their loads, everything a path or trajectory records per step:
@@ -21,7 +22,7 @@ with A the active-constraint Jacobian (inactive rows zeroed) and A = U Σ Vᵀ, 
 past the numerical rank span the null space; the rotated Hessian V K Vᵀ is restricted to them
 and the complement is shifted to σ = ‖K‖_F + 1, above every eigenvalue of the null-space block,
 so the smallest eigenvalue of the shifted matrix is λ_min(H_r). ``analysis.stability`` is the
-NumPy reference of the same test; the test-suite checks that both agree.
+NumPy reference of the same test; the tests check that the three agree.
 """
 
 from __future__ import annotations

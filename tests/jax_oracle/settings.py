@@ -1,34 +1,19 @@
-"""The interface of the Newton core (:mod:`biplan.solvers.core`): the traced
-:class:`Settings` of a compiled iteration and the :class:`Status` a solve ends with.
-"""
+"""The traced :class:`Settings` of the JAX Newton oracle (:mod:`jax_oracle.core`)."""
 
 from __future__ import annotations
 
 from typing import Any, NamedTuple
 
 from biplan._compile.setup import jnp
-from biplan._errors import ResultStatus
 
-__all__ = ["Settings", "Status"]
+__all__ = ["Settings"]
 
 Array = Any
 
 
-class Status(ResultStatus):
-    """Outcome of a solve."""
-
-    CONVERGED = 0, "converged", True
-    MAX_STEPS = 1, "maximum number of Newton steps reached before the residual tolerance"
-    LINE_SEARCH_FAILED = (
-        2,
-        "neither the Newton line search nor Levenberg–Marquardt reduced the residual",
-    )
-    NONFINITE = 3, "the residual or the Newton step became non-finite"
-
-
 class Settings(NamedTuple):
     """The traced settings of the compiled iteration (float64 scalars;
-    :meth:`biplan.solvers.Newton.settings` builds them).
+    :func:`jax_oracle.newton.settings_of` builds them from a Newton).
 
     Attributes
     ----------
