@@ -1,6 +1,7 @@
 """One-time compile of biplan's Numba kernels: wall time and where it goes, per function.
 
-Run:  .venv/bin/python benchmarks/bench_compile.py [--baseline-src DIR] [-- biplan args]
+Run:  .venv/bin/python benchmarks/bench_compile.py [--baseline-src DIR] [--opt K]
+      [--baseline-opt K] [--warm] [-- biplan args]
 
 Runs a biplan command (default ``respond examples/semi_bistable.toml``) in a new process with
 an empty kernel cache (``BIPLAN_NUMBA_CACHE`` in a temporary folder), so every kernel the
@@ -12,7 +13,10 @@ again, so a function's own time grows with everything below it (docs/performance
 
 ``--baseline-src DIR`` runs the same command at the same time on another source tree (e.g. a
 ``git worktree`` of an older commit: ``DIR/src`` goes first on ``PYTHONPATH``), so both see
-the same machine load, and prints the ratio of the wall times.
+the same machine load, and prints the ratio of the wall times. ``--opt K`` sets ``NUMBA_OPT``
+(the CLI compiles at -O1 unless it is set); ``--baseline-opt K`` runs the baseline on this tree
+at another level (at the same time). ``--warm`` then runs the command again in a new process on
+each warm cache (the wall time a user sees from the second run on).
 """
 
 from __future__ import annotations
@@ -58,8 +62,13 @@ for name, dt in sorted(own.items(), key=lambda kv: -kv[1])[:15]:
 """
 
 
-def _start(src: Path | None, args: list[str], cache: Path, out: Path) -> subprocess.Popen[str]:
+def _start(
+    src: Path | None, args: list[str], cache: Path, out: Path, opt: int | None
+) -> subprocess.Popen[str]:
     env = dict(os.environ, BIPLAN_NUMBA_CACHE=str(cache))
+    env.pop("NUMBA_OPT", None)
+    if opt is not None:
+        env["NUMBA_OPT"] = str(opt)
     if src is not None:
         env["PYTHONPATH"] = os.pathsep.join([str(src / "src"), env.get("PYTHONPATH", "")])
     cwd = src if src is not None else Path.cwd()
@@ -84,23 +93,36 @@ def _summary(proc: subprocess.Popen[str]) -> tuple[float, str]:
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--baseline-src", type=Path, default=None)
+    parser.add_argument("--opt", type=int, choices=range(4), default=None)
+    parser.add_argument("--baseline-opt", type=int, choices=range(4), default=None)
+    parser.add_argument("--warm", action="store_true")
     parser.add_argument("command", nargs="*", default=["respond", "examples/semi_bistable.toml"])
     args = parser.parse_args()
     load = os.getloadavg()[0]
     with tempfile.TemporaryDirectory(prefix="biplan-compile-") as tmp:
         root = Path(tmp)
         start = time.perf_counter()
-        this = _start(None, args.command, root / "cache", root / "out")
+        this = _start(None, args.command, root / "cache", root / "out", args.opt)
         base = None
-        if args.baseline_src is not None:
-            base = _start(args.baseline_src.resolve(), args.command, root / "base", root / "bout")
+        if args.baseline_src is not None or args.baseline_opt is not None:
+            src = None if args.baseline_src is None else args.baseline_src.resolve()
+            opt = args.baseline_opt if args.baseline_opt is not None else args.opt
+            base = _start(src, args.command, root / "base", root / "bout", opt)
         wall, table = _summary(this)
-        print(f"this tree ({Path.cwd()}), load {load:.1f} at start:\n{table}")
+        print(f"this tree ({Path.cwd()}, NUMBA_OPT {args.opt}), load {load:.1f} at start:\n{table}")
         if base is not None:
             base_wall, base_table = _summary(base)
-            print(f"baseline ({args.baseline_src}):\n{base_table}")
+            print(f"baseline ({args.baseline_src or 'this tree'}, NUMBA_OPT {opt}):\n{base_table}")
             print(f"ratio this/baseline (wall): {wall / base_wall:.2f}")
         print(f"elapsed {time.perf_counter() - start:.1f} s")
+        if args.warm:
+            again = _summary(_start(None, args.command, root / "cache", root / "out", args.opt))
+            print(f"warm, new process: this {again[0]:.1f} s", end="")
+            if base is not None:
+                src = None if args.baseline_src is None else args.baseline_src.resolve()
+                bagain = _summary(_start(src, args.command, root / "base", root / "bout", opt))
+                print(f", baseline {bagain[0]:.1f} s", end="")
+            print()
 
 
 if __name__ == "__main__":

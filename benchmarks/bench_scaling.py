@@ -62,7 +62,7 @@ for _ in range(3):
     path = biplan.trace_path(model, biplan.ArcLength(), ref, control)
     warm.append(time.perf_counter() - t3)
 states = len(path.load_parameter)
-from biplan.solvers.continuation import observe_states
+from biplan.solvers.events import observe_states
 z = np.stack([model.pack(*model.split(s.z)) for s in [ref]] * states)
 ctl = np.asarray(control.coefficients(model))
 obs = []

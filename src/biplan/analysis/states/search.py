@@ -39,7 +39,7 @@ from biplan.analysis.states.catalogue import (
 from biplan.analysis.states.labels import bistable_folds, bits_to_label, label_to_bits
 from biplan.analysis.states.seeding import Search, fold_vector_index, relax_seeds, seed_targets
 from biplan.model.assembly import Load, Model
-from biplan.solvers import observation
+from biplan.solvers import fractions
 from biplan.solvers.newton import Solution, Status, solve_equilibrium
 
 if TYPE_CHECKING:
@@ -59,7 +59,7 @@ def state_bits(model: Model, q: np.ndarray) -> tuple[int, ...]:
     """Fold-state bits of coordinates ``q`` (free end first,
     :func:`~biplan.analysis.states.labels.bistable_folds`): 1 where the open branch occupies more of
     the fold's length than the closed one (SI, "Construction of a state transition diagram")."""
-    frac = observation.phase_fractions(model.system().data, np.asarray(q, dtype=float))
+    frac = fractions.phase_fractions(model.system().data, np.asarray(q, dtype=float))
     index = [fold_vector_index(model, f) for f in bistable_folds(model.tube)]
     return tuple(int(frac[i, 2] > frac[i, 0]) for i in index)
 
