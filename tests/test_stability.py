@@ -328,7 +328,7 @@ def test_stiff_helical_tube_in_the_spinodal_is_unstable_under_force_control():
 
 
 # --------------------------------------------------------------------------------------------
-# Leaving a saddle under displacement control (analysis.quasistatic.relax)
+# Leaving a saddle under displacement control (analysis.quasistatic.proximal_descent)
 # --------------------------------------------------------------------------------------------
 def test_relax_from_the_symmetric_saddle_opens_one_fold(model6, symmetric_path):
     """From the symmetric saddle at U = 2 mm (every fold on the spinodal), the descent along its
@@ -336,7 +336,7 @@ def test_relax_from_the_symmetric_saddle_opens_one_fold(model6, symmetric_path):
     same U with lower energy, in which one circular fold has snapped to its open branch. The
     inexact sub-problems (the default) and exact ones (every sub-problem to ``atol``) end in the
     same equilibrium, and both give up in the other sense."""
-    from biplan.analysis.response.quasistatic import relax
+    from biplan.analysis.response.quasistatic import proximal_descent
     from biplan.analysis.stability import reduced_hessian
 
     saddle = symmetric_path[2.0]
@@ -345,7 +345,7 @@ def test_relax_from_the_symmetric_saddle_opens_one_fold(model6, symmetric_path):
     assert eig[0] < 0
     mode = basis @ vec[:, 0]
     runs = {
-        (sign, exact): relax(
+        (sign, exact): proximal_descent(
             model6,
             saddle,
             saddle.load,
@@ -378,8 +378,8 @@ def test_relax_from_the_symmetric_saddle_opens_one_fold(model6, symmetric_path):
 
 @pytest.mark.parametrize(("name", "value"), [("sub_steps", 0), ("sub_tolerance", -1.0)])
 def test_relax_rejects_bad_settings(model1, name, value):
-    from biplan.analysis.response.quasistatic import relax
+    from biplan.analysis.response.quasistatic import proximal_descent
 
     start = biplan.solve_equilibrium(model1, Newton(), model1.zeros())
     with pytest.raises(ConfigError, match=name):
-        relax(model1, start, start.load, Newton(), **{name: value})
+        proximal_descent(model1, start, start.load, Newton(), **{name: value})

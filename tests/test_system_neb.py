@@ -48,8 +48,8 @@ def edge(model4):
     band0 = _straight_band(model4, za, zb, 12)
     settings = NudgedElasticBand(n_images=12).settings()
     d = model4.system().data
-    out = band_loop.relax_band(d, band0, settings)
-    ref = _nebkernel.relax_band.compiled(model4.layout)(
+    out = band_loop.fire_band(d, band0, settings)
+    ref = _nebkernel.fire_band.compiled(model4.layout)(
         model4.params, jnp.asarray(band0), jnp.asarray(settings)
     )
     return d, band0, settings, out, ref
@@ -210,7 +210,7 @@ def test_barriers_equal_the_refined_jax_band(model1, n_images):
     neb = NudgedElasticBand(n_images=n_images)
     mep = minimum_energy_path(model1, za, zb, neb)
     band0 = _straight_band(model1, za, zb, n_images)
-    ref = _nebkernel.relax_band.compiled(model1.layout)(
+    ref = _nebkernel.fire_band.compiled(model1.layout)(
         model1.params, jnp.asarray(band0), jnp.asarray(neb.settings())
     )
     top = int(ref.climbing)

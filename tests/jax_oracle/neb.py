@@ -37,7 +37,7 @@ from jax_oracle.core import iterate
 from jax_oracle.settings import Settings
 from jax_oracle.strategies import minimum_norm
 
-__all__ = ["BandOutput", "band_forces", "project", "relax_band"]
+__all__ = ["BandOutput", "band_forces", "fire_band", "project"]
 
 Array = Any
 
@@ -181,7 +181,7 @@ class _State(NamedTuple):
 
 
 @kernel("band")
-def relax_band(layout: TubeLayout, p: ModelParams, q0: Array, settings: Array) -> BandOutput:
+def fire_band(layout: TubeLayout, p: ModelParams, q0: Array, settings: Array) -> BandOutput:
     """Relax a band q0 (M, n_q) whose end images are stationary states (pure; jit/vmap-able).
 
     ``settings`` = [spring, tolerance, max_iterations, climbing (0/1), dt, dt_max, max_step,

@@ -1,7 +1,7 @@
 """Constrained climbing-image nudged elastic band on the compiled system (Numba).
 
 The band is an array of images q_0 … q_{M−1} (n_q each); q_0 and q_{M−1} are the two stable
-states and stay fixed. :func:`relax_band` runs the whole optimisation:
+states and stay fixed. :func:`fire_band` runs the whole optimisation:
 
 1. **Constraint-projected gradient** (:func:`image_gradient`). With c = [g(q); w_∂(q)]
    (guides, contact gaps) and its Jacobian, the *active* rows are the guides and the contacts
@@ -40,8 +40,8 @@ __all__ = [
     "FIRE_INC",
     "FIRE_N_MIN",
     "band_forces",
+    "fire_band",
     "image_gradient",
-    "relax_band",
 ]
 
 #: False as a run-time value (a literal would compile a specialisation of its own)
@@ -182,7 +182,7 @@ def band_forces(
 
 
 @njit(cache=True)
-def relax_band(d: SystemData, q0: np.ndarray, settings: np.ndarray) -> tuple:  # type: ignore[type-arg]
+def fire_band(d: SystemData, q0: np.ndarray, settings: np.ndarray) -> tuple:  # type: ignore[type-arg]
     """Relax a band q0 (M, n_q) whose end images are stationary states (module docstring).
 
     ``settings`` = [spring, tolerance, max_iterations, climbing (0/1), dt, dt_max, max_step,

@@ -11,10 +11,10 @@ on from there. :func:`load_response` reproduces that sequence:
 2. the stable stretch of that path up to the first loss of stability, which the continuation
    has located (sign change of λ_min(H_r), to ``ArcLength.event_tolerance`` of the step);
 3. the landing state: a proximal-point descent at the fixed load
-   (:func:`~biplan.analysis.response.quasistatic.relax`) from the state at the loss of stability,
-   displaced along the most unstable mode of the first unstable state beyond it (in the sense
-   the path was leaving in; both senses at a symmetric bifurcation, or along the softest mode
-   of the last state where the branch turned back); the stable equilibrium of lowest
+   (:func:`~biplan.analysis.response.quasistatic.proximal_descent`) from the state at the loss
+   of stability, displaced along the most unstable mode of the first unstable state beyond it
+   (in the sense the path was leaving in; both senses at a symmetric bifurcation, or along the
+   softest mode of the last state where the branch turned back); the stable equilibrium of lowest
    potential Π − F z_p that differs from the start of the descent. A landing state that is
    itself the end of its branch (a neighbouring fold pushed past its peak) snaps again at the
    same load: a cascade, recorded as successive snaps;
@@ -35,7 +35,7 @@ from typing import Any
 import numpy as np
 
 from biplan._errors import ConfigError, check_integer
-from biplan.analysis.response.quasistatic import KICK, relax
+from biplan.analysis.response.quasistatic import KICK, proximal_descent
 from biplan.analysis.stability import Verdict, reduced_hessian
 from biplan.model.assembly import Model
 from biplan.solvers.continuation import ArcLength, trace_path
@@ -281,7 +281,9 @@ def _land(
         load = control.load(model, value)
         best: Solution | None = None
         for d in directions:
-            found = relax(model, origin, load, solver, direction=d, amplitude=KICK, polish_every=3)
+            found = proximal_descent(
+                model, origin, load, solver, direction=d, amplitude=KICK, polish_every=3
+            )
             if found is None or found[1].verdict is not Verdict.STABLE:
                 continue
             sol = found[0]

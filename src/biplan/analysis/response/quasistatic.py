@@ -24,14 +24,14 @@ from biplan.analysis.stability import Stability, Verdict, classify, reduced_hess
 from biplan.model.assembly import Load, Model
 from biplan.solvers.newton import Newton, Solution, Status, relaxed_reference, solve_equilibrium
 
-__all__ = ["SWEEP_KIND", "QuasiStaticPath", "displacement_sweep", "relax"]
+__all__ = ["SWEEP_KIND", "QuasiStaticPath", "displacement_sweep", "proximal_descent"]
 
 #: ``kind`` attribute of a sweep's labelled dataset (:func:`biplan.io.results.sweep_dataset`).
 SWEEP_KIND = "stable-branch sweep"
 
 #: Length [mm, rad] of the displacement along an unstable mode that starts a descent.
 KICK = 0.1
-#: Newton iterations of a proximal sub-problem (inexact proximal point, :func:`relax`).
+#: Newton iterations of a proximal sub-problem (inexact proximal point, :func:`proximal_descent`).
 SUB_STEPS = 20
 #: Residual ‖r‖∞ [N, mm] below which an unconverged proximal sub-problem moves the anchor.
 SUB_TOLERANCE = 1e-6
@@ -42,8 +42,9 @@ SUB_BACKTRACKS = 8
 
 def inexact_newton(solver: Newton, sub_steps: int = SUB_STEPS) -> Newton:
     """The Newton of a proximal sub-problem: ``solver`` with at most ``sub_steps`` iterations,
-    at most :data:`SUB_BACKTRACKS` step halvings and no contact restart (:func:`relax`, and
-    the departure stepper's descent: a failed sub-problem stiffens the anchor spring instead).
+    at most :data:`SUB_BACKTRACKS` step halvings and no contact restart
+    (:func:`proximal_descent`, and the departure stepper's descent: a failed sub-problem
+    stiffens the anchor spring instead).
 
     A sub-problem that is not convex enough fails fast: with the full line search (30
     halvings, then Levenberg–Marquardt until its damping passes 1e12) one failure cost up to
@@ -98,7 +99,7 @@ class QuasiStaticPath:
         return len(self.displacement)
 
 
-def relax(
+def proximal_descent(
     model: Model,
     start: Solution,
     load: Load,
@@ -198,7 +199,7 @@ def _stabilise(
     for i in np.flatnonzero(eig < 0):
         best: tuple[Solution, Stability] | None = None
         for sign in (1.0, -1.0):
-            found = relax(
+            found = proximal_descent(
                 model,
                 sol,
                 sol.load,
@@ -247,7 +248,7 @@ def _advance(
     sol = solve_equilibrium(model, solver, current, Load.of_displacement(target))
     if not sol.converged:
         if depth >= 4:
-            found = relax(model, current, Load.of_displacement(target), solver)
+            found = proximal_descent(model, current, Load.of_displacement(target), solver)
             if found is None:
                 return sol, None, False
             return found[0], found[1], _snapped(model, solver, current, found[0])

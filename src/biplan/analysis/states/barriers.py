@@ -8,7 +8,7 @@ tube (guides g(q) = 0, contact gaps w_∂(q) ≥ 0):
    returned to the manifold (:mod:`biplan.solvers.manifold`);
 2. the band is relaxed by FIRE with constraint-projected NEB forces and, once the forces are
    small, a climbing image (Henkelman, Uberuaga & Jónsson 2000): the compiled loop
-   :func:`biplan.solvers.band_loop.relax_band` on the model's System at rest (Numba, compiled
+   :func:`biplan.solvers.band_loop.fire_band` on the model's System at rest (Numba, compiled
    once for every tube; the JAX kernel it replaced is the tests' oracle,
    ``tests/jax_oracle/neb.py``);
 3. the climbing image, with its least-squares multipliers, starts a Newton solve of the full KKT
@@ -276,7 +276,7 @@ def _attempt(
     t = np.linspace(0.0, 1.0, neb.n_images)[:, None]
     band0 = (1.0 - t) * za[None, :nq] + t * zb[None, :nq]
     system = model.system()
-    q, energies, lams, lam_cs, fmax, climbing, its, _ = band_loop.relax_band(
+    q, energies, lams, lam_cs, fmax, climbing, its, _ = band_loop.fire_band(
         system.data, band0, settings
     )
     arc = np.concatenate([[0.0], np.cumsum(np.linalg.norm(np.diff(q, axis=0), axis=1))])

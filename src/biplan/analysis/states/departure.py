@@ -11,9 +11,9 @@ bracketed and bisected: the critical load is the last load at which the branch i
 stable — under force control a limit point of the force, where the tube snaps.
 
 The snap is then followed by proximal-point descent (bias ½κ‖q − q_prev‖² with κ → 0, as
-:func:`biplan.analysis.response.quasistatic.relax`) at a load just past the critical one, and
-the landed state is unloaded to zero load the same way. It lands in the target when every fold
-has the target's majority phase.
+:func:`biplan.analysis.response.quasistatic.proximal_descent`) at a load just past the critical
+one, and the landed state is unloaded to zero load the same way. It lands in the target when
+every fold has the target's majority phase.
 """
 
 from __future__ import annotations
@@ -136,7 +136,7 @@ class _Stepper:
         self.model, self.ramp = model, ramp
         self.system = model.system()
         self.settings = _settings(ramp.newton)
-        # the proximal sub-problems of relax() are solved inexactly (as in quasistatic.relax)
+        # the proximal sub-problems are solved inexactly (as in quasistatic.proximal_descent)
         self.sub_settings = _settings(inexact_newton(ramp.newton))
         self.d = 1.0 if ramp.displacement_control else 0.0
 
@@ -148,7 +148,7 @@ class _Stepper:
         self, z: np.ndarray, value: float, bias: tuple[np.ndarray, float] | None = None
     ) -> tuple[np.ndarray, bool]:
         """Newton at ``value`` from z (``bias``: (anchor, κ) of a biased problem of
-        :meth:`relax`, solved inexactly: ``SUB_STEPS`` iterations, converged below
+        :meth:`proximal_descent`, solved inexactly: ``SUB_STEPS`` iterations, converged below
         ``SUB_TOLERANCE``)."""
         f, u = (0.0, value) if self.d else (value, 0.0)
         system = self.system.at(f, u, self.d)
@@ -176,13 +176,13 @@ class _Stepper:
             return zn, False
         return zn, bool(self.observe(zn, value).min_eigenvalue[0] > 1e-8)
 
-    def relax(self, z: np.ndarray, value: float) -> np.ndarray:
+    def proximal_descent(self, z: np.ndarray, value: float) -> np.ndarray:
         """Adaptive proximal-point descent at ``value`` (an implicit gradient flow): bias
         ½κ‖q − q_prev‖² anchored at the previous iterate; κ shrinks after a converged step and
         grows after a failed one (a biased problem that is not convex), down to 1e-6 κ_0. The
-        biased problems are solved inexactly (:func:`biplan.analysis.response.quasistatic.relax`);
-        the
-        state returned is a final unbiased solve to ``atol`` (the last anchor if that fails)."""
+        biased problems are solved inexactly
+        (:func:`biplan.analysis.response.quasistatic.proximal_descent`); the state returned is a
+        final unbiased solve to ``atol`` (the last anchor if that fails)."""
         nq = self.model.n_coordinates
         kappa, floor = self.ramp.kappa, 1e-6 * self.ramp.kappa
         for _ in range(self.ramp.max_relaxations):
@@ -286,12 +286,12 @@ def departure_force(
             hi = mid
     obs = st.observe(z_lo, lo)
     force, disp = float(obs.force[0]), float(obs.displacement[0])
-    landed = st.relax(z_lo, hi + ramp.overshoot * (hi - values[0]))
+    landed = st.proximal_descent(z_lo, hi + ramp.overshoot * (hi - values[0]))
     # release the end: relax under zero end force
     free = _Stepper(
         model, Ramp(kappa=ramp.kappa, max_relaxations=ramp.max_relaxations, newton=ramp.newton)
     )
-    landed = free.relax(landed, 0.0)
+    landed = free.proximal_descent(landed, 0.0)
     bits = _bits(model, landed)
     return Departure(
         DepartureStatus.FOUND,
