@@ -51,14 +51,13 @@ DEGREE_LIMITS = (6, 8, 10, 12, 16, 20, 24, 32)
 MIN_GAIN = 4.0
 
 
-def jacobian_pattern(data: SystemData, seed: int = 0) -> np.ndarray:
-    """Boolean (n_z, n_z): where ∂r/∂z can be non-zero, symmetrised (the union of the
+def jacobian_pattern(data: SystemData, seed: int = 0) -> sp.csr_matrix:
+    """Boolean sparse (n_z, n_z): where ∂r/∂z can be non-zero, symmetrised (the union of the
     Jacobians at two random states, each under an end force and under displacement
     control)."""
     n_q, n_g, n_c = (int(v) for v in data.sizes)
-    n_z = n_q + n_g + n_c + 1
     rng = np.random.default_rng(seed)
-    pattern = np.zeros((n_z, n_z), dtype=bool)
+    pattern: sp.csr_matrix | None = None
     for _ in range(2):
         z = np.concatenate(
             [
@@ -67,23 +66,27 @@ def jacobian_pattern(data: SystemData, seed: int = 0) -> np.ndarray:
             ]
         )
         for load in ((1.0, 0.0, 0.0), (0.0, 0.5, 1.0)):
-            jac = assemble.jacobian(data, z, np.array(load))
-            pattern |= jac != 0.0
-    return pattern | pattern.T
+            found = sp.csr_matrix(assemble.jacobian(data, z, np.array(load)) != 0.0)
+            pattern = found if pattern is None else pattern + found
+    assert pattern is not None
+    pattern = (pattern + pattern.T).astype(bool).tocsr()
+    pattern.sort_indices()
+    return pattern
 
 
-def _border(pattern: np.ndarray, degree_limit: int) -> np.ndarray:
+def _border(pattern: sp.csr_matrix, degree_limit: int) -> np.ndarray:
     """The border: the unknown of most neighbours among the others, repeatedly, while that
     is above ``degree_limit`` (the top module's coordinates couple to every frame angle,
     and to little else once those are in the border)."""
-    degree = pattern.sum(axis=1) - np.diag(pattern).astype(int)
+    degree = np.diff(pattern.indptr) - pattern.diagonal().astype(int)
     border: list[int] = []
     while True:
         i = int(np.argmax(degree))
         if degree[i] <= degree_limit:
             return np.sort(np.array(border, dtype=np.int64))
         border.append(i)
-        degree -= pattern[:, i]
+        # the pattern is symmetric: column i's rows are row i's columns
+        degree[pattern.indices[pattern.indptr[i] : pattern.indptr[i + 1]]] -= 1
         degree[i] = -1
 
 
@@ -94,14 +97,15 @@ def solve_cost(n: int, n_border: int, kl: int, ku: int) -> float:
     return 2.0 * (m * kl * (kl + ku) + (k + 1) * m * (2 * kl + ku) + k * (k + 1) * m + k**3 / 3)
 
 
-def _arrangement(pattern: np.ndarray, degree_limit: int) -> tuple[np.ndarray, int, int, int]:
+def _arrangement(pattern: sp.csr_matrix, degree_limit: int) -> tuple[np.ndarray, int, int, int]:
     """(order, n_inner, kl, ku) with the border of ``degree_limit``."""
     n_z = pattern.shape[0]
     border = _border(pattern, degree_limit)
     inner = np.setdiff1d(np.arange(n_z), border)
-    sub = sp.csr_matrix(pattern[np.ix_(inner, inner)])
+    sub = pattern[inner][:, inner]
     perm = inner[reverse_cuthill_mckee(sub, symmetric_mode=True)]
-    rows, cols = np.nonzero(pattern[np.ix_(perm, perm)])
+    band = pattern[perm][:, perm].tocoo()
+    rows, cols = band.row, band.col
     kl = int(max((rows - cols).max(initial=0), 0))
     ku = int(max((cols - rows).max(initial=0), 0))
     return np.concatenate([perm, border]).astype(np.int64), inner.size, kl, ku
