@@ -172,3 +172,27 @@ def test_main_help_exits_0(capsys: pytest.CaptureFixture[str]) -> None:
         main(["--help"])
     assert exit_info.value.code == 0
     assert "demo" in capsys.readouterr().out
+
+
+def test_compile_refuses_a_negative_job_count(capsys: pytest.CaptureFixture[str]) -> None:
+    with pytest.raises(SystemExit) as exit_info:
+        main(["compile", "--jobs", "-1"])
+    assert exit_info.value.code == EXIT_BIPLAN_ERROR
+    assert "invalid --jobs = -1: must be an integer ≥ 0" in capsys.readouterr().err
+
+
+def test_compile_workloads_run_and_report_failures(monkeypatch: pytest.MonkeyPatch) -> None:
+    """A workload of ``biplan compile`` runs the drivers it names (here in this process, its
+    kernels cached by the suite); a failing one is reported with its error, not raised."""
+    from biplan.cli import compile as compile_cmd
+
+    assert compile_cmd.FIRST in compile_cmd.WORKLOADS
+    done = compile_cmd._run("path")
+    assert done.name == "path" and done.error is None and done.seconds > 0.0
+
+    def broken() -> None:
+        raise ValueError("no such tube")
+
+    monkeypatch.setitem(compile_cmd.WORKLOADS, "broken", broken)
+    failed = compile_cmd._run("broken")
+    assert failed.error == "ValueError: no such tube"

@@ -8,7 +8,7 @@ kernels call across modules (the Newton calls the assembly, which calls the elem
 
 * the cache lives in ``$BIPLAN_NUMBA_CACHE``, else ``$NUMBA_CACHE_DIR/biplan``, else
   ``$XDG_CACHE_HOME/biplan/numba`` (default ``~/.cache/biplan/numba``), in a folder named by a
-  fingerprint of every biplan module that uses Numba: any change to one of them starts a fresh
+  fingerprint of every biplan module that imports Numba: any change to one of them starts a fresh
   cache, so no kernel is served with another module's old code;
 * the folder is created when the first compiled kernel is saved, never at import.
 
@@ -26,6 +26,7 @@ from __future__ import annotations
 import functools
 import hashlib
 import os
+import re
 from pathlib import Path
 from typing import Any
 
@@ -35,17 +36,20 @@ __all__ = ["OPT_LEVEL", "BiplanLocator", "cache_dir", "fingerprint", "is_warm", 
 
 _PACKAGE = Path(__file__).resolve().parent.parent
 
+#: A line importing Numba (``import numba``, ``from numba… import``).
+_IMPORTS_NUMBA = re.compile(rb"^\s*(?:from|import)\s+numba\b", re.MULTILINE)
 #: LLVM optimisation level of the compile in biplan's own processes (:func:`use_own_opt_level`).
 OPT_LEVEL = 1
 
 
 @functools.cache
 def fingerprint() -> str:
-    """SHA-256 (first 16 hex digits) of the sources of every biplan module that uses Numba."""
+    """SHA-256 (first 16 hex digits) of the sources of every biplan module that imports Numba
+    (the modules of compiled functions; a module that only names them is not one)."""
     digest = hashlib.sha256()
     for path in sorted(_PACKAGE.rglob("*.py")):
         text = path.read_bytes()
-        if b"numba" in text:
+        if _IMPORTS_NUMBA.search(text):
             digest.update(str(path.relative_to(_PACKAGE)).encode())
             digest.update(text)
     return digest.hexdigest()[:16]

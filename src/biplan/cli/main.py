@@ -19,6 +19,7 @@ from rich.markup import escape
 from biplan._errors import BiplanError, BiplanWarning
 from biplan.cli import (
     calibrate,
+    compile,
     demo,
     design,
     explore,
@@ -45,6 +46,7 @@ app = typer.Typer(
     pretty_exceptions_show_locals=False,
 )
 app.command("demo")(demo.demo)
+app.command("compile")(compile.compile_kernels)
 app.add_typer(calibrate.app, name="calibrate")
 app.command("validate")(validate.validate)
 app.command("plot")(plot.plot)

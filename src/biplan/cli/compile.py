@@ -1,0 +1,168 @@
+"""``biplan compile [--jobs N]``: compile this installation's kernels once, in parallel.
+
+Numba compiles a kernel on its first call and caches it for this installation
+(:mod:`biplan._compile.numba_cache`); one process compiles one function at a time, so a user
+who runs every command compiles the kernels one after another. :data:`WORKLOADS` are small
+runs of the drivers that together call every compiled entry point once, on the designs the
+commands use; :func:`compile_all` runs :data:`FIRST` (the one Newton and the construction of a
+``System``, which every other workload calls first) on its own, then the others in ``--jobs``
+processes at once, and the command prints each workload's time. A kernel already cached is
+loaded, not compiled: a second run takes seconds. Exits 1 when a workload failed.
+"""
+
+from __future__ import annotations
+
+import multiprocessing
+import os
+import time
+from collections.abc import Callable, Iterator
+from concurrent.futures import ProcessPoolExecutor, as_completed
+from dataclasses import dataclass
+from typing import Annotated
+
+import typer
+from rich.console import Console
+
+from biplan._errors import check_integer
+from biplan.cli._checks import options_named
+
+__all__ = ["FIRST", "WORKLOADS", "WorkloadTime", "compile_all", "compile_kernels"]
+
+
+def _equilibrium() -> None:
+    """The one Newton (force and displacement control) and the System of two designs."""
+    from biplan import Load, Model, Newton, designs, relaxed_reference, solve_equilibrium
+
+    for tube in (designs.semi_bistable(), designs.fully_bistable()):
+        model = Model(tube)
+        ref = relaxed_reference(model)
+        solve_equilibrium(model, Newton(), ref, Load.of_displacement(0.5))
+        solve_equilibrium(model, Newton(), ref, Load.of_force(0.5))
+
+
+def _path() -> None:
+    """The arclength path through the first snap, its events and observations."""
+    from biplan import ArcLength, Control, Model, designs, relaxed_reference, trace_path
+
+    model = Model(designs.semi_bistable())
+    trace_path(model, ArcLength(), relaxed_reference(model), Control.force(2.5))
+
+
+def _dynamics() -> None:
+    """A few generalized-α steps of the paper's force ramp (the inertia rows, the step loop)."""
+    from biplan import GeneralizedAlpha, Model, designs, integrate, relaxed_reference
+
+    model = Model(designs.semi_bistable())
+    integrate(model, GeneralizedAlpha(), relaxed_reference(model), t_end=0.05)
+
+
+def _states() -> None:
+    """The exhaustive state search (seed relaxation, observation at rest), the band between
+    two states and deflation."""
+    from biplan import Model, designs
+    from biplan.analysis.states.barriers import minimum_energy_path
+    from biplan.analysis.states.deflation import Deflation, deflate
+    from biplan.analysis.states.search import enumerate_states
+
+    model = Model(designs.fully_bistable(n_modules=2))
+    catalogue = enumerate_states(model)
+    first, last = catalogue.states[0], catalogue.states[-1]
+    minimum_energy_path(model, first.z, last.z)
+    deflate(model, [s.z for s in catalogue.states], Deflation(n_perturbations=1, max_midpoints=1))
+
+
+def _maps() -> None:
+    """One point of the design map (force ramp) and of the stability map."""
+    from biplan import designs
+    from biplan.analysis.maps.design_map import ResponseEvaluator
+    from biplan.analysis.maps.stability_map import StabilityEvaluator
+    from biplan.analysis.maps.sweeps import Grid, sweep
+
+    design = designs.semi_bistable()
+    sweep(design, Grid.of(b=[0.5], C=[1.0]), ResponseEvaluator(), chunk_size=1)
+    sweep(design, Grid.of(C=[1.0], displacement=[0.1]), StabilityEvaluator(), chunk_size=1)
+
+
+#: The workloads by name; :data:`FIRST` runs before the others.
+WORKLOADS: dict[str, Callable[[], None]] = {
+    "equilibrium": _equilibrium,
+    "path": _path,
+    "dynamics": _dynamics,
+    "states": _states,
+    "maps": _maps,
+}
+FIRST = "equilibrium"
+
+
+@dataclass(frozen=True)
+class WorkloadTime:
+    """One workload run: its name, wall time [s] and error (``None`` when it ran)."""
+
+    name: str
+    seconds: float
+    error: str | None = None
+
+
+def _run(name: str) -> WorkloadTime:
+    """Run one workload in this (worker) process, as biplan's own processes compile."""
+    from biplan._compile.numba_cache import use_own_opt_level
+    from biplan._compile.setup import limit_blas_threads
+
+    limit_blas_threads()
+    use_own_opt_level()
+    start = time.perf_counter()
+    try:
+        WORKLOADS[name]()
+    except Exception as exc:  # reported with its workload; the others go on
+        return WorkloadTime(name, time.perf_counter() - start, f"{type(exc).__name__}: {exc}")
+    return WorkloadTime(name, time.perf_counter() - start)
+
+
+def compile_all(jobs: int) -> Iterator[WorkloadTime]:
+    """Compile (or load) every kernel: :data:`FIRST` in a new process, then the other
+    workloads in ``jobs`` processes at once (``jobs`` ≥ 1); yields each workload's time as it
+    finishes. Every workload runs in a process of its own (``spawn``), so this process
+    compiles nothing."""
+    context = multiprocessing.get_context("spawn")
+    rest = [name for name in WORKLOADS if name != FIRST]
+    with ProcessPoolExecutor(max_workers=1, mp_context=context) as pool:
+        yield pool.submit(_run, FIRST).result()
+    with ProcessPoolExecutor(max_workers=min(jobs, len(rest)), mp_context=context) as pool:
+        futures = [pool.submit(_run, name) for name in rest]
+        for done in as_completed(futures):
+            yield done.result()
+
+
+def compile_kernels(
+    jobs: Annotated[
+        int,
+        typer.Option(
+            "--jobs",
+            help="Processes compiling at once after the shared Newton (default: the cores "
+            "this process may run on).",
+        ),
+    ] = 0,
+) -> None:
+    """Compile every kernel of this installation now (once; later runs load them)."""
+    from biplan._compile.numba_cache import cache_dir
+
+    with options_named({"jobs": "--jobs"}):
+        cores = len(os.sched_getaffinity(0)) if hasattr(os, "sched_getaffinity") else os.cpu_count()
+        jobs = check_integer("jobs", jobs, low=0) or max(int(cores or 1), 1)
+    err = Console(stderr=True)
+    err.print(
+        f"biplan: compiling the kernels of this installation, loading those already cached "
+        f"({len(WORKLOADS)} workloads: {FIRST} first, then {jobs} process"
+        f"{'es' if jobs > 1 else ''} at once; cache {cache_dir()})"
+    )
+    start = time.perf_counter()
+    failed = []
+    for done in compile_all(jobs):
+        if done.error is None:
+            err.print(f"  {done.name:<12} {done.seconds:7.1f} s")
+        else:
+            failed.append(done.name)
+            err.print(f"  [red]{done.name:<12} failed after {done.seconds:.1f} s: {done.error}")
+    err.print(f"compiled in {time.perf_counter() - start:.1f} s (wall)")
+    if failed:
+        raise typer.Exit(1)
