@@ -23,7 +23,7 @@ from biplan.model.elements import reduced as oracle
 from biplan.model.system import chainterm, reduced
 from biplan.options import ChainAttachment, ContactForm, TpcSign
 from biplan.solvers import iteration, lanes, relax_loop
-from biplan.solvers.observation import phase_fractions
+from biplan.solvers.fractions import phase_fractions
 from conftest import make_tube
 
 LAYOUTS = {
