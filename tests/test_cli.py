@@ -196,3 +196,26 @@ def test_compile_workloads_run_and_report_failures(monkeypatch: pytest.MonkeyPat
     monkeypatch.setitem(compile_cmd.WORKLOADS, "broken", broken)
     failed = compile_cmd._run("broken")
     assert failed.error == "ValueError: no such tube"
+
+
+def test_the_one_time_compile_is_announced_once_with_the_compile_command(
+    monkeypatch: pytest.MonkeyPatch, capsys: pytest.CaptureFixture[str]
+) -> None:
+    """With nothing of this install cached, the first System of a process says that the
+    kernels compile once and where they are cached, and points to ``biplan compile``; a
+    second System says nothing; a warm cache says nothing."""
+    from biplan._compile import numba_cache
+    from biplan.model import system
+
+    monkeypatch.setattr(system, "_ANNOUNCED", [])
+    monkeypatch.setattr(numba_cache, "is_warm", lambda: False)
+    system._announce_compile()
+    system._announce_compile()
+    err = capsys.readouterr().err
+    assert err.count("biplan: compiling the element kernels") == 1
+    assert "`biplan compile` compiles all of them at once" in err
+    assert str(numba_cache.cache_dir()) in err
+    monkeypatch.setattr(system, "_ANNOUNCED", [])
+    monkeypatch.setattr(numba_cache, "is_warm", lambda: True)
+    system._announce_compile()
+    assert capsys.readouterr().err == ""

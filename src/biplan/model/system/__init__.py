@@ -168,7 +168,8 @@ def _announce_compile() -> None:
     if not numba_cache.is_warm():
         print(
             "biplan: compiling the element kernels and solvers for this installation, once "
-            f"(a few minutes; cached in {numba_cache.cache_dir()})",
+            "(a few minutes; `biplan compile` compiles all of them at once, in parallel; "
+            f"cached in {numba_cache.cache_dir()})",
             file=sys.stderr,
             flush=True,
         )
