@@ -1,6 +1,6 @@
 """Warm hot loops of the compiled core: one Newton solve (N = 6, 48) and a short arclength path.
 
-Run:  .venv/bin/python benchmarks/bench_warm_kernels.py
+Run:  .venv/bin/python benchmarks/bench_warm_kernels.py [--reference 6 48 200 400]
 
 Semi-bistable laws and SI Table geometry on a base fold, N modules. Per N: the Newton solve at
 F = 0.5 N from the relaxed reference (``iteration.solve_system`` on the model's ``System``,
@@ -9,10 +9,17 @@ best of 200 at N = 6, 20 at N = 48); at N = 6 the displacement-controlled arclen
 LLVM levels, fill two caches at two levels (``benchmarks/bench_compile.py`` or ``NUMBA_OPT=k
 BIPLAN_NUMBA_CACHE=DIR biplan respond ...``) and run this with ``BIPLAN_NUMBA_CACHE=DIR``: the
 kernels are loaded as compiled, whatever ``NUMBA_OPT`` this process has.
+
+``--reference N …`` instead times the first relaxed reference of a tube never seen, per N, in a
+new process each (kernels cached): the process's wall time, and inside it the model, its
+``System`` (with the banded layout) and the Newton.
 """
 
 from __future__ import annotations
 
+import argparse
+import subprocess
+import sys
 import time
 from collections.abc import Callable
 
@@ -57,7 +64,44 @@ def measure(n: int) -> None:
         print(f"N = 6: path to 1.2 mm: {t * 1e3:.1f} ms, {len(path.load_parameter)} states")
 
 
+#: The child of ``--reference``: one tube never seen, timed by piece.
+REFERENCE = """
+import sys, time
+import biplan
+from biplan._compile.setup import limit_blas_threads
+limit_blas_threads()
+laws = biplan.designs.semi_bistable()
+t0 = time.perf_counter()
+tube = biplan.Tube.uniform(radius=2.0, pitch=3.6, helical_angle=60.0, n_modules=int(sys.argv[1]),
+    helical=laws.helical_laws[0], circular=laws.circular_laws[0], base_fold=True)
+model = biplan.Model(tube)
+t1 = time.perf_counter()
+model.system()
+t2 = time.perf_counter()
+ref = biplan.relaxed_reference(model)
+t3 = time.perf_counter()
+print(f"model {t1 - t0:.2f} s, System {t2 - t1:.2f} s, Newton {t3 - t2:.2f} s, {ref.status.name}")
+"""
+
+
+def reference(n: int) -> None:
+    """Print the first relaxed reference of an N-module tube in a new process."""
+    start = time.perf_counter()
+    out = subprocess.run(
+        [sys.executable, "-c", REFERENCE, str(n)], capture_output=True, text=True, check=True
+    )
+    wall = time.perf_counter() - start
+    print(f"N = {n}: new process {wall:.2f} s wall ({out.stdout.strip()})")
+
+
 def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--reference", type=int, nargs="+", default=None)
+    args = parser.parse_args()
+    if args.reference:
+        for n in args.reference:
+            reference(n)
+        return
     limit_blas_threads()
     for n in (6, 48):
         measure(n)

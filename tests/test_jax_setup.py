@@ -210,3 +210,16 @@ def test_numba_opt_level_is_the_users_until_biplan_runs_its_own_process():
         text=True,
     )  # fmt: skip
     assert user.stdout.split() == ["2", "2", "2"], user.stderr[-2000:]
+
+
+def test_jax_cache_follows_xdg_cache_home(tmp_path) -> None:
+    """Without BIPLAN_JAX_CACHE the JAX compilation cache lives in $XDG_CACHE_HOME/biplan/jax
+    (as the compiled kernels' cache does); BIPLAN_JAX_CACHE overrides it."""
+    code = "from biplan._compile import setup\nsetup.jnp.ones(1)\nprint(setup.CACHE_DIR)\n"
+    env = {k: v for k, v in os.environ.items() if k != "BIPLAN_JAX_CACHE"}
+    env["XDG_CACHE_HOME"] = str(tmp_path / "xdg")
+    out = subprocess.run([sys.executable, "-c", code], env=env, capture_output=True, text=True)
+    assert out.stdout.strip() == str(tmp_path / "xdg" / "biplan" / "jax"), out.stderr[-2000:]
+    env["BIPLAN_JAX_CACHE"] = str(tmp_path / "own")
+    out = subprocess.run([sys.executable, "-c", code], env=env, capture_output=True, text=True)
+    assert out.stdout.strip() == str(tmp_path / "own"), out.stderr[-2000:]

@@ -13,7 +13,6 @@ loaded, not compiled: a second run takes seconds. Exits 1 when a workload failed
 from __future__ import annotations
 
 import multiprocessing
-import os
 import time
 from collections.abc import Callable, Iterator
 from concurrent.futures import ProcessPoolExecutor, as_completed
@@ -145,10 +144,10 @@ def compile_kernels(
 ) -> None:
     """Compile every kernel of this installation now (once; later runs load them)."""
     from biplan._compile.numba_cache import cache_dir
+    from biplan.analysis.scaleout import available_cores
 
     with options_named({"jobs": "--jobs"}):
-        cores = len(os.sched_getaffinity(0)) if hasattr(os, "sched_getaffinity") else os.cpu_count()
-        jobs = check_integer("jobs", jobs, low=0) or max(int(cores or 1), 1)
+        jobs = check_integer("jobs", jobs, low=0) or available_cores()
     err = Console(stderr=True)
     err.print(
         f"biplan: compiling the kernels of this installation, loading those already cached "

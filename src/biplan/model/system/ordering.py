@@ -56,8 +56,9 @@ def jacobian_pattern(data: SystemData, seed: int = 0) -> sp.csr_matrix:
     Jacobians at two random states, each under an end force and under displacement
     control)."""
     n_q, n_g, n_c = (int(v) for v in data.sizes)
+    n_z = n_q + n_g + n_c + 1
     rng = np.random.default_rng(seed)
-    pattern: sp.csr_matrix | None = None
+    pattern = np.zeros((n_z, n_z), dtype=bool)
     for _ in range(2):
         z = np.concatenate(
             [
@@ -66,12 +67,10 @@ def jacobian_pattern(data: SystemData, seed: int = 0) -> sp.csr_matrix:
             ]
         )
         for load in ((1.0, 0.0, 0.0), (0.0, 0.5, 1.0)):
-            found = sp.csr_matrix(assemble.jacobian(data, z, np.array(load)) != 0.0)
-            pattern = found if pattern is None else pattern + found
-    assert pattern is not None
-    pattern = (pattern + pattern.T).astype(bool).tocsr()
-    pattern.sort_indices()
-    return pattern
+            pattern |= assemble.jacobian(data, z, np.array(load)) != 0.0
+    sparse = sp.csr_matrix(pattern | pattern.T)
+    sparse.sort_indices()
+    return sparse
 
 
 def _border(pattern: sp.csr_matrix, degree_limit: int) -> np.ndarray:
