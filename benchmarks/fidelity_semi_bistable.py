@@ -27,8 +27,14 @@ import time
 import numpy as np
 
 import biplan
-from biplan.laws import TransitionReading
-from biplan.options import ChainOffset, LoadPoint, MirrorConvention, ModelOptions, ModuleKind
+from biplan.options import (
+    ChainOffset,
+    LoadPoint,
+    MirrorConvention,
+    ModelOptions,
+    ModuleKind,
+    TransitionReading,
+)
 
 READINGS: list[tuple[str, dict]] = [
     ("defaults (MODEL.md literal)", {}),

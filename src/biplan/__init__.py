@@ -36,12 +36,12 @@ if TYPE_CHECKING:
     from biplan.geometry import FoldRef as FoldRef
     from biplan.io.config import load_config as load_config
     from biplan.laws import LinearLaw as LinearLaw
-    from biplan.laws import TransitionReading as TransitionReading
     from biplan.laws import TrilinearLaw as TrilinearLaw
     from biplan.model.assembly import Load as Load
     from biplan.model.assembly import Model as Model
     from biplan.model.tube import Tube as Tube
     from biplan.options import ModelOptions as ModelOptions
+    from biplan.options import TransitionReading as TransitionReading
     from biplan.solvers import ArcLength as ArcLength
     from biplan.solvers import Control as Control
     from biplan.solvers import EquilibriumPath as EquilibriumPath
@@ -81,7 +81,7 @@ _EXPORTS = {
     "Tube": "biplan.model.tube",
     "load_config": "biplan.io.config",
     "LinearLaw": "biplan.laws",
-    "TransitionReading": "biplan.laws",
+    "TransitionReading": "biplan.options",
     "TrilinearLaw": "biplan.laws",
     "ModelOptions": "biplan.options",
     "ArcLength": "biplan.solvers",

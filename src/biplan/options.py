@@ -26,7 +26,6 @@ from dataclasses import dataclass, fields, replace
 from typing import Any
 
 from biplan._errors import ConfigError, check_range
-from biplan.laws.trilinear import TransitionReading
 
 __all__ = [
     "ChainAttachment",
@@ -40,6 +39,19 @@ __all__ = [
     "TpcSign",
     "TransitionReading",
 ]
+
+
+class TransitionReading(enum.Enum):
+    """How the calibration table's ``l_circ = [l1, l2]`` becomes breakpoints (MODEL CHOICE L1).
+
+    ``ABSOLUTE``: the breakpoints are the elongations w1 = l1, w2 = l2 at which the branches
+    change (default: the SI interpolates the spinodal "between the two measured instability
+    points"). ``BRANCH_LENGTHS``: l1 is the closed-branch length and l2 the spinodal length,
+    so w1 = l1 and w2 = l1 + l2.
+    """
+
+    ABSOLUTE = "absolute"
+    BRANCH_LENGTHS = "branch_lengths"
 
 
 class ModuleKind(enum.Enum):

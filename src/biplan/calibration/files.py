@@ -44,7 +44,8 @@ from biplan.calibration.calibrate import Calibration
 from biplan.calibration.fits import CftGeometry
 from biplan.calibration.specimens import MIN_POINTS, Segment, Specimen, segment_problem
 from biplan.io.config_writer import law_lines
-from biplan.laws import LinearLaw, TransitionReading, TrilinearLaw
+from biplan.laws import LinearLaw, TrilinearLaw
+from biplan.options import TransitionReading
 
 __all__ = [
     "UNITS",

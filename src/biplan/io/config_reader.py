@@ -21,8 +21,8 @@ from typing import Any
 from biplan._errors import ConfigError, CostWarning
 from biplan.analysis.maps.cost import LARGE_MODULES, MAX_MODULES, duration, tube_cost
 from biplan.geometry import Development
-from biplan.laws import FoldLaw, LinearLaw, TransitionReading, TrilinearLaw
-from biplan.options import ModelOptions
+from biplan.laws import FoldLaw, LinearLaw, TrilinearLaw
+from biplan.options import ModelOptions, TransitionReading
 
 __all__ = [
     "FOLD_SETS",

@@ -13,7 +13,8 @@ import math
 from collections import Counter
 from typing import Any
 
-from biplan.laws import FoldLaw, LinearLaw, TransitionReading, TrilinearLaw
+from biplan.laws import FoldLaw, LinearLaw, TrilinearLaw
+from biplan.options import TransitionReading
 
 __all__ = ["law_lines", "most_common", "toml_value"]
 

@@ -25,6 +25,7 @@ import numpy as np
 from biplan._errors import ConfigError
 from biplan.analysis.response.quasistatic import SWEEP_KIND, QuasiStaticPath
 from biplan.io.config import dump_config, load_config_text
+from biplan.io.netcdf import write_netcdf
 from biplan.model.assembly import Load, Model
 from biplan.solvers.path_results import EquilibriumPath
 from biplan.solvers.results import ENERGY_BALANCE, RESPONSE_VARIABLES
@@ -83,8 +84,7 @@ def save_netcdf(result: EquilibriumPath | Trajectory | Any, path: str | FilePath
     ds = result if not isinstance(result, EquilibriumPath | Trajectory) else dataset(result)
     out = FilePath(path)
     out.parent.mkdir(parents=True, exist_ok=True)
-    ds.to_netcdf(out, engine="h5netcdf")
-    return out
+    return write_netcdf(ds, out)
 
 
 def save_csv(result: EquilibriumPath | Trajectory, path: str | FilePath) -> FilePath:

@@ -32,6 +32,7 @@ from biplan.analysis.states.hierarchy import hierarchy
 from biplan.analysis.states.labels import bistable_folds
 from biplan.analysis.states.transitions import write_graphml
 from biplan.io.config import dump_config
+from biplan.io.netcdf import write_netcdf
 from biplan.io.sweepstore import ChunkStore
 
 if TYPE_CHECKING:
@@ -114,8 +115,8 @@ def write_state_files(catalogue: StateCatalogue, graph: nx.Graph, out: Path) -> 
         w.writerows(_seed_row(s) for s in catalogue.seeds)
     ds = catalogue.to_dataset()
     ds.attrs["config"] = dump_config(catalogue.model.tube)
-    ds.to_netcdf(files[2], engine="h5netcdf")
-    hierarchy(catalogue).to_netcdf(files[3], engine="h5netcdf")
+    write_netcdf(ds, files[2])
+    write_netcdf(hierarchy(catalogue), files[3])
     write_graphml(graph, files[4])
     return files
 

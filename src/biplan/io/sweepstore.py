@@ -32,6 +32,7 @@ from typing import Any
 import numpy as np
 
 from biplan._errors import ConfigError
+from biplan.io.netcdf import write_netcdf
 
 __all__ = ["MAP_FILE", "ChunkStore", "load_map", "save_map"]
 
@@ -198,7 +199,7 @@ class ChunkStore:
             for name, arr in result.items()
         }
         ds = xr.Dataset(data)
-        _atomic_write(self._path(chunk), lambda p: ds.to_netcdf(p, engine="h5netcdf"))
+        _atomic_write(self._path(chunk), lambda p: write_netcdf(ds, p))
         self.finished.add(chunk)
         self._write_manifest()
 
@@ -223,7 +224,7 @@ def save_map(ds: Any, path: str | Path) -> Path:
     """Write a merged map Dataset to netCDF (h5netcdf), atomically."""
     out = Path(path)
     out.parent.mkdir(parents=True, exist_ok=True)
-    _atomic_write(out, lambda p: ds.to_netcdf(p, engine="h5netcdf"))
+    _atomic_write(out, lambda p: write_netcdf(ds, p))
     return out
 
 

@@ -1,9 +1,8 @@
 """Fold laws: one fold's constitutive law versus its local elongation w (mm)."""
 
 from biplan.laws.linear import LinearLaw as LinearLaw
-from biplan.laws.trilinear import TransitionReading as TransitionReading
 from biplan.laws.trilinear import TrilinearLaw as TrilinearLaw
 
 FoldLaw = TrilinearLaw | LinearLaw
 
-__all__ = ["FoldLaw", "LinearLaw", "TransitionReading", "TrilinearLaw"]
+__all__ = ["FoldLaw", "LinearLaw", "TrilinearLaw"]

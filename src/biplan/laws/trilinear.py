@@ -2,26 +2,13 @@
 
 from __future__ import annotations
 
-import enum
 from dataclasses import dataclass
 
 from biplan._errors import ConfigError, check_finite
 from biplan.laws._base import LawMixin
+from biplan.options import TransitionReading
 
-__all__ = ["TransitionReading", "TrilinearLaw"]
-
-
-class TransitionReading(enum.Enum):
-    """How the calibration table's ``l_circ = [l1, l2]`` becomes breakpoints (MODEL CHOICE L1).
-
-    ``ABSOLUTE``: the breakpoints are the elongations w1 = l1, w2 = l2 at which the branches
-    change (default: the SI interpolates the spinodal "between the two measured instability
-    points"). ``BRANCH_LENGTHS``: l1 is the closed-branch length and l2 the spinodal length,
-    so w1 = l1 and w2 = l1 + l2.
-    """
-
-    ABSOLUTE = "absolute"
-    BRANCH_LENGTHS = "branch_lengths"
+__all__ = ["TrilinearLaw"]
 
 
 @dataclass(frozen=True)

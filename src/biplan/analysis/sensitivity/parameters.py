@@ -37,10 +37,11 @@ import numpy as np
 from biplan._compile.setup import jnp
 from biplan._errors import ConfigError
 from biplan.geometry import Development, chain
-from biplan.laws import LinearLaw, TransitionReading, TrilinearLaw
+from biplan.laws import LinearLaw, TrilinearLaw
 from biplan.model.assembly import Load, Model
 from biplan.model.params import ModelParams
 from biplan.model.tube import Tube
+from biplan.options import TransitionReading
 
 __all__ = ["AngleParameter", "Parameter", "ParameterSet", "design_parameters"]
 
