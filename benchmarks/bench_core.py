@@ -7,11 +7,11 @@ Prints, for the semi-bistable paper design (6 modules, 64 unknowns):
 * cold start — a fresh process with JAX's persistent cache disabled: import, build the model,
   relaxed reference, one displacement-controlled solve + stability classification;
 * cache-warm start — the same in a fresh process reading the persistent cache, with the
-  kernel store (traced kernels, ``biplan._compile.kernel``) off and on: the store's share is the
+  trace store (traced kernels, ``biplan._compile.traced``) off and on: the store's share is the
   tracing and lowering that a warm start no longer does;
 * two processes at once on a fresh cache (e.g. two Dask workers starting on the same design),
   with the store's build lock (one process traces and compiles each kernel, the other waits
-  and reads it) and without it (``_kernels._entry_lock`` patched out): wall and CPU seconds;
+  and reads it) and without it (``_traced._entry_lock`` patched out): wall and CPU seconds;
 * warm solves — 40 displacement-controlled steps (0.02 → 0.8 mm) in this process, per step;
 * baseline — the same 40 steps with ``scipy.optimize.root`` (hybr, finite-difference
   Jacobian) on the *same jitted residual*, i.e. a favourable baseline (a plain NumPy residual
@@ -42,7 +42,7 @@ print(f"{t1 - t0:.2f} {t2 - t1:.2f}")
 
 
 def _start(cache: str, store: str = "on") -> tuple[float, float]:
-    env = dict(os.environ, BIPLAN_JAX_CACHE=cache, BIPLAN_KERNEL_STORE=store)
+    env = dict(os.environ, BIPLAN_JAX_CACHE=cache, BIPLAN_TRACE_STORE=store)
     out = subprocess.run(
         [sys.executable, "-c", SNIPPET], env=env, capture_output=True, text=True, check=True
     )
@@ -52,8 +52,8 @@ def _start(cache: str, store: str = "on") -> tuple[float, float]:
 
 UNLOCKED = """
 import contextlib
-from biplan._compile import kernel as _kernels
-_kernels._entry_lock = lambda file: contextlib.nullcontext()
+from biplan._compile import traced as _traced
+_traced._entry_lock = lambda file: contextlib.nullcontext()
 """
 
 
@@ -63,7 +63,7 @@ def _pair(locked: bool) -> tuple[float, float]:
 
     code = SNIPPET if locked else UNLOCKED + SNIPPET
     with tempfile.TemporaryDirectory() as cache:
-        env = dict(os.environ, BIPLAN_JAX_CACHE=cache, BIPLAN_KERNEL_STORE="on")
+        env = dict(os.environ, BIPLAN_JAX_CACHE=cache, BIPLAN_TRACE_STORE="on")
         before = resource.getrusage(resource.RUSAGE_CHILDREN)
         t0 = time.perf_counter()
         procs = [

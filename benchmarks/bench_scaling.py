@@ -3,7 +3,7 @@
 Run:  .venv/bin/python benchmarks/bench_scaling.py [--sizes 3 6 12 24 48] [--fully 4 8]
       [--oracle-max 24] [--timeout 600] [--pieces]
 
-For each N, a fresh process with an empty JAX cache and kernel store (a tube never seen):
+For each N, a fresh process with an empty JAX cache and trace store (a tube never seen):
 
 * ``reference``: import → Model → :func:`biplan.relaxed_reference` (wall seconds, cold);
 * ``first path``: the displacement-controlled arclength path to U = 0.2·N mm (through phase 1
@@ -87,7 +87,7 @@ t = biplan.designs.semi_bistable()
 tube = biplan.Tube.uniform(radius=2.0, pitch=3.6, helical_angle=60.0, n_modules=n,
     helical=t.helical_laws[0], circular=t.circular_laws[0], base_fold=True)
 m = biplan.Model(tube); L = m.layout; p = m.params
-z = jnp.asarray(np.full(m.n_unknowns, 0.01)); load = asm.Load(1.3, 0.0, 0.0).for_kernel()
+z = jnp.asarray(np.full(m.n_unknowns, 0.01)); load = asm.Load(1.3, 0.0, 0.0).for_jax()
 nq, ng = L.n_coordinates, m.n_guides
 pieces = dict(
     elements=lambda zz: E.local_terms(L, p, zz[:nq], zz[nq:nq + ng], zz[nq + ng:-1]),
@@ -109,7 +109,7 @@ print(json.dumps(out))
 def pieces(n: int) -> dict:
     """Compile [s] and run [ms] times of the assembly's pieces, each under its own jit."""
     with tempfile.TemporaryDirectory() as cache:
-        env = dict(os.environ, BIPLAN_JAX_CACHE=cache, BIPLAN_KERNEL_STORE="off")
+        env = dict(os.environ, BIPLAN_JAX_CACHE=cache, BIPLAN_TRACE_STORE="off")
         env.pop("BIPLAN_FAST_COMPILE", None)
         out = subprocess.run(
             [sys.executable, "-c", PIECES.format(n=n)],
@@ -123,7 +123,7 @@ def pieces(n: int) -> dict:
 
 def run(n: int, design: str, oracle: bool, timeout: float) -> dict | None:
     with tempfile.TemporaryDirectory() as cache:
-        env = dict(os.environ, BIPLAN_JAX_CACHE=cache, BIPLAN_KERNEL_STORE="off")
+        env = dict(os.environ, BIPLAN_JAX_CACHE=cache, BIPLAN_TRACE_STORE="off")
         env.pop("BIPLAN_FAST_COMPILE", None)
         code = CHILD.format(n=n, design=design, oracle=oracle)
         try:

@@ -13,7 +13,7 @@ F = 1.3 N. Prints:
   dispatch, "loop"), and JAX ``Model.residual/jacobian`` (jitted, NumPy out) at
   ``--jax-sizes``; the ratio JAX / Numba-py. Beside them, the one-time cost of a new N in
   this process: JAX's compile of residual + Jacobian (first call minus warm call, with
-  JAX's persistent cache and biplan's kernel store off in this process, so it is a real
+  JAX's persistent cache and biplan's trace store off in this process, so it is a real
   compile) and Numba's first residual + Jacobian call for that N (≈ 0: a new N is only new
   array sizes). Numba's own one-time load of its cached kernels into this process is timed
   on N = 3 before the table and printed apart;
@@ -41,10 +41,10 @@ import sys
 import tempfile
 import time
 
-# JAX compile times below are real compiles: no persistent cache, no kernel store. Set before
+# JAX compile times below are real compiles: no persistent cache, no trace store. Set before
 # biplan (and so JAX) is imported.
 os.environ["BIPLAN_JAX_CACHE"] = "off"
-os.environ["BIPLAN_KERNEL_STORE"] = "off"
+os.environ["BIPLAN_TRACE_STORE"] = "off"
 os.environ.pop("BIPLAN_FAST_COMPILE", None)
 
 import numba

@@ -37,7 +37,7 @@ import pytest
 
 import biplan  # enables JAX float64
 from biplan._compile.numba_cache import use_own_opt_level
-from biplan._compile.setup import limit_blas_threads, release_compiled_kernels
+from biplan._compile.setup import limit_blas_threads, release_jax_executables
 
 # Two test workers share the two cores: BLAS on one thread each (as the CLI runs it), else
 # OpenBLAS's spinning threads slow every dense solve of the compiled core several times.
@@ -73,7 +73,7 @@ def _bounded_compiled_kernels():
     between tests once half the cap is used (kernels then recompile on demand).
     """
     yield
-    release_compiled_kernels(0.5)
+    release_jax_executables(0.5)
 
 
 @pytest.fixture(scope="module")

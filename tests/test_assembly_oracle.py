@@ -17,7 +17,7 @@ import numpy as np
 import pytest
 
 import biplan
-from biplan._compile.setup import jax, jnp, kernel_options
+from biplan._compile.setup import jax, jnp, xla_options
 from biplan.geometry import chain
 from biplan.geometry.layout import TubeLayout
 from biplan.model import lagrangian, potential
@@ -63,12 +63,12 @@ def _both(layout: TubeLayout):
             pair(lagrangian.state_data, _oracle.state_data, p, z, load),
         )
 
-    return jax.jit(all_three, compiler_options=kernel_options())
+    return jax.jit(all_three, compiler_options=xla_options())
 
 
 def _compare(model: biplan.Model, z: np.ndarray, load: Load) -> None:
     (r, r_ref), (j, j_ref), (s, s_ref) = _both(model.layout)(
-        model.params, jnp.asarray(z), load.for_kernel()
+        model.params, jnp.asarray(z), load.for_jax()
     )
     assert _relative(r, r_ref) < TOL
     assert _relative(j, j_ref) < TOL
@@ -114,7 +114,7 @@ def test_model_hessian_and_jacobians_equal_global_autodiff(model6, rng):
             jax.jacfwd(lambda y: potential.contact_gaps(layout, p, y))(x),
         )
 
-    h, g, c = jax.jit(oracle, compiler_options=kernel_options())(jnp.asarray(q))
+    h, g, c = jax.jit(oracle, compiler_options=xla_options())(jnp.asarray(q))
     assert _relative(model6.hessian(q), h) < TOL
     assert _relative(model6.constraint_jacobian(q), g) < TOL
     assert _relative(model6.contact_jacobian(q), c) < TOL
@@ -146,7 +146,7 @@ def test_curvature_is_the_quadratic_form_of_the_assembled_matrices(model2, rng):
     q = random_configuration(model2, rng)
     n_rows = model2.n_guides + model2.n_contacts + 1
 
-    @functools.partial(jax.jit, compiler_options=kernel_options())
+    @functools.partial(jax.jit, compiler_options=xla_options())
     def both(z, load, x, eta):
         data = lagrangian.state_data(layout, p, z, load)
         quad = x @ data.lagrangian_hessian @ x - 2.0 * eta @ (data.constraint_jacobian @ x)
@@ -157,5 +157,5 @@ def test_curvature_is_the_quadratic_form_of_the_assembled_matrices(model2, rng):
             q, rng.normal(0.0, 1.0, model2.n_guides), rng.uniform(0.0, 1.0, model2.n_contacts), 0.3
         )
         x, eta = rng.normal(size=model2.n_coordinates), rng.normal(size=n_rows)
-        got, want = both(jnp.asarray(z), load.for_kernel(), jnp.asarray(x), jnp.asarray(eta))
+        got, want = both(jnp.asarray(z), load.for_jax(), jnp.asarray(x), jnp.asarray(eta))
         assert abs(float(got) - float(want)) < TOL * max(1.0, abs(float(want)))

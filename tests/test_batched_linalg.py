@@ -9,7 +9,7 @@ import numpy as np
 import pytest
 
 from biplan._compile import linalg
-from biplan._compile.setup import jax, jnp, kernel_options
+from biplan._compile.setup import jax, jnp, xla_options
 from biplan.model.lagrangian import kkt_jacobian
 from biplan.model.params import Load
 from biplan.model.potential import contact_gaps
@@ -54,7 +54,7 @@ def test_stability_from_the_kkt_jacobian_equals_the_fresh_hessian(model6) -> Non
     settings = settings_of(Newton())
     loop = solve_loop.compiled(m.layout)
 
-    @functools.partial(jax.jit, compiler_options=kernel_options())
+    @functools.partial(jax.jit, compiler_options=xla_options())
     def both(params, z, load):  # the two λ_min of one converged state, compiled once
         q = z[: m.n_coordinates]
         jac = kkt_jacobian(m.layout, params, z, load)

@@ -17,7 +17,7 @@ import numpy as np
 import pytest
 
 import biplan
-from biplan._compile.setup import jax, jnp, kernel_options
+from biplan._compile.setup import jax, jnp, xla_options
 from biplan.analysis.modes import natural_modes, rayleigh_at, rayleigh_for_damping_ratio
 from biplan.analysis.response.ramp_dynamics import continue_ramp
 from biplan.model.assembly import Load
@@ -42,7 +42,7 @@ def test_mass_matrix_and_inertia_force(model6, loaded, rng):
     v = rng.normal(size=q.size)
     a = rng.normal(size=q.size)
     mu = model6.tube.surface_density
-    force = jax.jit(inertia_force, static_argnums=0, compiler_options=kernel_options())
+    force = jax.jit(inertia_force, static_argnums=0, compiler_options=xla_options())
     f = np.asarray(
         force(model6.layout, model6.params, jnp.asarray(q), jnp.asarray(v), jnp.asarray(a), mu)
     )

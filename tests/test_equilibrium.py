@@ -448,9 +448,9 @@ def test_watchdog_returns_the_best_of_its_free_steps(model1):
     out unconverged goes back to the iterate of smallest merit ½‖r‖² (here it also hits the
     step limit, so that is what it returns)."""
     from biplan._compile.setup import jnp
-    from biplan.model.assembly import kernels
+    from biplan.model.assembly import autodiff_functions
 
-    kk = kernels(model1.layout)
+    kk = autodiff_functions(model1.layout)
     rng = np.random.default_rng(3)
     load = Load.of_displacement(1.0)
     jload = Load(*(jnp.asarray(float(v)) for v in load))
@@ -494,11 +494,11 @@ def test_traced_watchdog_of_length_zero_takes_the_plain_iterates(model1):
     length 0 it takes exactly the iterates of the loop compiled without a watchdog."""
     import functools
 
-    from biplan._compile.setup import jax, jnp, kernel_options
+    from biplan._compile.setup import jax, jnp, xla_options
     from jax_oracle.newton import newton_loop, settings_of, solve_loop
 
     plain = jax.jit(functools.partial(newton_loop, model1.layout, free_steps=0),
-                    compiler_options=kernel_options(runs_often=True))  # fmt: skip
+                    compiler_options=xla_options(runs_often=True))  # fmt: skip
     rng = np.random.default_rng(5)
     load = Load(jnp.asarray(0.0), jnp.asarray(0.8), jnp.asarray(1.0))
     settings = settings_of(Newton(max_steps=40, free_steps=0))

@@ -14,9 +14,9 @@ from biplan._compile.setup import (
     LIGHT_PIPELINE,
     jax,
     jnp,
-    kernel_options,
     memory_map_count,
-    release_compiled_kernels,
+    release_jax_executables,
+    xla_options,
 )
 
 
@@ -34,30 +34,30 @@ def test_fast_compile_gives_the_cheap_pipeline_per_kernel(monkeypatch):
     XLA's default, and a pipeline flag the user set in XLA_FLAGS wins."""
     assert os.environ["BIPLAN_FAST_COMPILE"] == "on"
     assert "xla_backend_optimization_level" not in os.environ["XLA_FLAGS"]
-    assert kernel_options() == CHEAP_PIPELINE
-    assert kernel_options(runs_often=True) == LIGHT_PIPELINE
-    for options in (kernel_options(), kernel_options(runs_often=True)):
+    assert xla_options() == CHEAP_PIPELINE
+    assert xla_options(runs_often=True) == LIGHT_PIPELINE
+    for options in (xla_options(), xla_options(runs_often=True)):
         f = jax.jit(lambda x: jnp.sin(x) ** 2, compiler_options=options)
         y = f.lower(jnp.ones(3)).compile()(jnp.ones(3))
         assert float(y[0]) == pytest.approx(np.sin(1) ** 2)
     monkeypatch.setenv("XLA_FLAGS", "--xla_backend_optimization_level=2")
-    assert kernel_options() == {
+    assert xla_options() == {
         "xla_llvm_disable_expensive_passes": True,
         "xla_cpu_use_fusion_emitters": False,
     }
     monkeypatch.setenv("BIPLAN_FAST_COMPILE", "off")
-    assert kernel_options() is None
-    assert kernel_options(runs_often=True) is None
+    assert xla_options() is None
+    assert xla_options(runs_often=True) is None
 
 
 @pytest.mark.skipif(not sys.platform.startswith("linux"), reason="/proc/self/maps is Linux")
-def test_release_compiled_kernels_frees_memory_maps():
+def test_release_jax_executables_frees_memory_maps():
     functions = [jax.jit(lambda x, k=k: jnp.sin(x) * k + x**2) for k in range(100)]
     for f in functions:
         f(jnp.ones(3)).block_until_ready()
     before = memory_map_count()
-    assert release_compiled_kernels(fraction=1.0) is False  # far below the cap: nothing done
-    assert release_compiled_kernels(fraction=0.0) is True
+    assert release_jax_executables(fraction=1.0) is False  # far below the cap: nothing done
+    assert release_jax_executables(fraction=0.0) is True
     after = memory_map_count()
     assert after < before - 200  # ~3 mappings per executable released
     assert float(functions[0](jnp.ones(3))[0]) == pytest.approx(1.0)  # recompiles on demand
@@ -78,7 +78,7 @@ def test_release_fraction_is_validated():
     from biplan import ConfigError
 
     with pytest.raises(ConfigError, match=r"fraction.*\[0, 1\]"):
-        release_compiled_kernels(fraction=1.5)
+        release_jax_executables(fraction=1.5)
 
 
 def test_a_load_reaches_a_kernel_with_one_input_type(model1):
@@ -88,14 +88,14 @@ def test_a_load_reaches_a_kernel_with_one_input_type(model1):
 
     from biplan.model.assembly import Load
 
-    py, npy = Load.of_force(0.3).for_kernel(), Load.of_force(np.float64(0.3)).for_kernel()
+    py, npy = Load.of_force(0.3).for_jax(), Load.of_force(np.float64(0.3)).for_jax()
     assert [jax.typeof(v) for v in py] == [jax.typeof(v) for v in npy]
     z = np.asarray(model1.pack(model1.zeros()))
-    model1.kernels.residual.clear_cache()
+    model1.autodiff.residual.clear_cache()
     model1.residual(z, Load.of_force(0.3))
     model1.residual(z, Load(np.float64(0.3), np.float64(0.0), np.float64(0.0)))
-    assert model1.kernels.residual._cache_size() == 1
-    batch = Load(np.zeros(3), np.zeros(3), np.zeros(3)).for_kernel()
+    assert model1.autodiff.residual._cache_size() == 1
+    batch = Load(np.zeros(3), np.zeros(3), np.zeros(3)).for_jax()
     assert all(v.shape == (3,) for v in batch)
 
 

@@ -136,7 +136,7 @@ def test_loads_and_weak_contacts(model6, semi_states):
         system = model6.system(Load(*load))
         jac = system.jacobian(z)
         gaps = system.state(z, jac).gaps
-        ref = float(kkt_min_eigenvalue(model6.layout, z, jac, gaps, Load(*load).for_kernel(), True))
+        ref = float(kkt_min_eigenvalue(model6.layout, z, jac, gaps, Load(*load).for_jax(), True))
         assert lam == ref or abs(lam - ref) <= 1e-8 * max(1.0, abs(ref))
     with pytest.raises(ValueError):
         observation.observe(system, np.zeros((0, model6.n_unknowns)))

@@ -14,7 +14,7 @@ from biplan.analysis.states import seeding
 from biplan.analysis.states.catalogue import Enumeration
 from biplan.analysis.states.search import Search, enumerate_states
 from biplan.io.sweepstore import ChunkStore
-from biplan.model.assembly import kernels
+from biplan.model.assembly import autodiff_functions
 
 #: Small chunks for the two-module tube (8 seeds → two chunks of four; one compilation).
 SMALL = Enumeration(chunk=4)
@@ -62,7 +62,7 @@ def test_neighbourhood_search_finds_the_exhaustive_states(model2fb, model4):
 
 def test_every_state_is_a_stable_equilibrium_recomputed(model2fb):
     cat = enumerate_states(model2fb, SMALL, search=Search.NEIGHBOURHOOD)
-    residual = kernels(model2fb.layout).residual
+    residual = autodiff_functions(model2fb.layout).residual
     for s in cat.states:
         r = np.asarray(residual(model2fb.params, s.z, biplan.Load.of_force(0.0)))
         assert np.max(np.abs(r)) < 1e-7, s.name
@@ -189,7 +189,7 @@ def test_at_rest_assembly_equals_the_general_one_at_zero_load(which, model2fb, m
     from biplan.model.params import Load
 
     model = model2fb if which == "fully_bistable_2" else model1
-    zero = Load.of_force(0.0).for_kernel()
+    zero = Load.of_force(0.0).for_jax()
     layout, params = model.layout, model.params
 
     @jax.jit

@@ -20,7 +20,7 @@ from biplan.analysis.states.labels import (
 )
 from biplan.analysis.states.search import enumerate_states, relax_state, state_bits
 from biplan.analysis.states.transitions import pathway, transition_graph, write_graphml
-from biplan.model.assembly import kernels
+from biplan.model.assembly import autodiff_functions
 
 RESIDUAL_TOL = 1e-7
 
@@ -98,7 +98,7 @@ def test_single_bistable_fold_has_two_states_known_by_hand(catalogue1, model1):
 def test_states_are_stable_equilibria(catalogue4, model4):
     assert len(catalogue4) >= 4
     zero = biplan.Load.of_force(0.0)
-    residual = kernels(model4.layout).residual
+    residual = autodiff_functions(model4.layout).residual
     for s in catalogue4.states:
         r = np.asarray(residual(model4.params, s.z, zero))
         assert np.max(np.abs(r)) < RESIDUAL_TOL, s.name

@@ -28,7 +28,7 @@ import numpy as np
 import pytest
 
 import biplan
-from biplan._compile.setup import jax, jnp, kernel_options
+from biplan._compile.setup import jax, jnp, xla_options
 from biplan.geometry.layout import TubeLayout
 from biplan.model import inertia as jax_inertia
 from biplan.model.assembly import Load
@@ -69,7 +69,7 @@ def _relative(a: np.ndarray, b: np.ndarray) -> float:
     return float(np.max(np.abs(np.asarray(a) - b)) / max(np.max(np.abs(b)), 1e-300))
 
 
-@functools.partial(jax.jit, static_argnums=0, compiler_options=kernel_options())
+@functools.partial(jax.jit, static_argnums=0, compiler_options=xla_options())
 def _jax_inertia(layout: TubeLayout, p, q, v, a, q0, mu, c_v, c_m):  # type: ignore[no-untyped-def]
     """The JAX quantities: points, ∂p/∂q, (∂²p)[v, v], weights, M, M a + c, and the inertia
     rows of a step (v, a affine in q) with their autodiff Jacobian."""

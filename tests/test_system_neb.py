@@ -229,7 +229,7 @@ def test_barriers_equal_the_refined_jax_band(model1, n_images):
     z0 = model1.pack(np.asarray(ref.q)[top], np.asarray(ref.guide_multipliers)[top])
     load = Load.of_force(0.0)
     out, _ = solve_loop.compiled(model1.layout)(
-        model1.params, jnp.asarray(z0), load.for_kernel(), settings_of(neb.refine)
+        model1.params, jnp.asarray(z0), load.for_jax(), settings_of(neb.refine)
     )
     assert int(out.status) == Status.CONVERGED.value
     z = np.asarray(out.z)

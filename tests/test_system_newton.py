@@ -35,7 +35,7 @@ def test_compiled_newton_takes_the_jax_iterates(model6, reference6, case):
         system.data, system.load, reference6.z, s, iteration.NO_BORDER, 0.0, iteration.NO_STEP
     )
     out, _ = solve_loop.compiled(model6.layout)(
-        model6.params, reference6.z, load.for_kernel(), settings_of(method)
+        model6.params, reference6.z, load.for_jax(), settings_of(method)
     )
     assert status == int(out.status)
     assert steps == int(out.steps)

@@ -24,9 +24,9 @@ import numpy as np
 import pytest
 
 import biplan
-from biplan._compile.setup import jax, jnp, kernel_options
+from biplan._compile.setup import jax, jnp, xla_options
 from biplan.geometry import chain
-from biplan.laws import _kernels
+from biplan.laws import _jax as law_jax
 from biplan.model.params import Load
 from biplan.model.system import System
 from biplan.model.system.elements import field_energy
@@ -203,7 +203,7 @@ def test_field_energy_derivatives_equal_finite_differences():
 
 
 def test_field_energy_equals_the_jax_law_kernel():
-    """E equals biplan.laws._kernels.field_energy (JAX) and its derivatives equal JAX's
+    """E equals biplan.laws._jax.field_energy (JAX) and its derivatives equal JAX's
     autodiff of it, including a straddle below the split tolerance."""
     cases = {**FIELDS, **NARROW}
     length = 2.7
@@ -211,9 +211,9 @@ def test_field_energy_equals_the_jax_law_kernel():
     law = tuple(jnp.asarray(v) for v in LAW)
 
     def energy(x):
-        return _kernels.field_energy(x[0], x[1], length, law)
+        return law_jax.field_energy(x[0], x[1], length, law)
 
-    @functools.partial(jax.jit, compiler_options=kernel_options())
+    @functools.partial(jax.jit, compiler_options=xla_options())
     def all_three(x):
         return (
             jax.vmap(energy)(x),

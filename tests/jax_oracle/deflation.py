@@ -11,10 +11,10 @@ from typing import Any
 
 import numpy as np
 
-from biplan._compile.kernel import kernel
 from biplan._compile.setup import jax, jnp
+from biplan._compile.traced import traced
 from biplan.geometry.layout import TubeLayout
-from biplan.model.assembly import Load, kernels
+from biplan.model.assembly import Load, autodiff_functions
 from biplan.solvers import deflated_loop as compiled_loop
 from jax_oracle.core import iterate
 from jax_oracle.settings import Settings
@@ -40,7 +40,7 @@ def deflated_system(
     docstring. A point with a coordinate beyond :data:`ESCAPE` has a NaN residual (a trial
     point there is rejected).
     """
-    k = kernels(layout)
+    k = autodiff_functions(layout)
     zero = jnp.asarray(0.0)
     load = Load(zero, zero, zero)
     nq = layout.n_coordinates
@@ -64,7 +64,7 @@ def deflated_system(
     return deflated, jacobian, log_m
 
 
-@kernel("deflated_newton")
+@traced("deflated_newton")
 def deflated_loop(
     layout: TubeLayout,
     p: Any,
@@ -86,7 +86,7 @@ def deflated_loop(
 
     out = iterate(deflated, jacobian, z0, settings, converged=undeflated_converged)
     zero = jnp.asarray(0.0)
-    r = kernels(layout).residual(p, out.z, Load(zero, zero, zero))
+    r = autodiff_functions(layout).residual(p, out.z, Load(zero, zero, zero))
     return out.z, out.status, jnp.max(jnp.abs(r))
 
 

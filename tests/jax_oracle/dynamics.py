@@ -28,7 +28,7 @@ from typing import Any, NamedTuple
 import numpy as np
 
 import biplan
-from biplan._compile.setup import jax, jnp, kernel_options
+from biplan._compile.setup import jax, jnp, xla_options
 from biplan.geometry.layout import TubeLayout
 from biplan.model.inertia import inertia_force, quadrature_points, quadrature_weights
 from biplan.model.lagrangian import kkt_jacobian, residual, sizes
@@ -69,7 +69,7 @@ def _kinetic(layout: TubeLayout, p: ModelParams, q: Array, v: Array, mu_s: Array
     return 0.5 * jnp.sum(w[:, None] * jv**2)
 
 
-kinetic_energy = functools.partial(jax.jit, static_argnums=0, compiler_options=kernel_options())(
+kinetic_energy = functools.partial(jax.jit, static_argnums=0, compiler_options=xla_options())(
     _kinetic
 )
 
@@ -131,7 +131,7 @@ def step(
     return StepOut(new, ok, out.steps, kinetic, dissipated)
 
 
-@functools.partial(jax.jit, static_argnums=0, compiler_options=kernel_options())
+@functools.partial(jax.jit, static_argnums=0, compiler_options=xla_options())
 def chunk(
     layout: TubeLayout,
     p: ModelParams,

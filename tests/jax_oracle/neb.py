@@ -27,8 +27,8 @@ from __future__ import annotations
 from typing import Any, NamedTuple
 
 from biplan._compile import linalg
-from biplan._compile.kernel import kernel
 from biplan._compile.setup import jax, jnp
+from biplan._compile.traced import traced
 from biplan.geometry.layout import TubeLayout
 from biplan.model.lagrangian import sizes
 from biplan.model.params import ModelParams
@@ -180,7 +180,7 @@ class _State(NamedTuple):
     it: Array
 
 
-@kernel("band")
+@traced("band")
 def fire_band(layout: TubeLayout, p: ModelParams, q0: Array, settings: Array) -> BandOutput:
     """Relax a band q0 (M, n_q) whose end images are stationary states (pure; jit/vmap-able).
 

@@ -1,17 +1,17 @@
 """The JAX Newton of the equilibrium solve, kept as the oracle of the compiled one
 (:func:`biplan.solvers.iteration.newton`): :func:`jax_oracle.core.machine` on the model's KKT
 system r(z) = 0 at a load, its residual and KKT Jacobian by autodiff
-(:func:`biplan.model.assembly.kernels`), one ``jax.lax.while_loop`` per tube layout.
+(:func:`biplan.model.assembly.autodiff_functions`), one ``jax.lax.while_loop`` per tube layout.
 """
 
 from __future__ import annotations
 
 from typing import Any
 
-from biplan._compile.kernel import kernel
 from biplan._compile.setup import jax
+from biplan._compile.traced import traced
 from biplan.geometry.layout import TubeLayout
-from biplan.model.assembly import Load, kernels
+from biplan.model.assembly import Load, autodiff_functions
 from biplan.model.lagrangian import StateData, state_from_jacobian
 from biplan.solvers import Newton
 from jax_oracle.core import LoopState, machine
@@ -39,7 +39,7 @@ def newton_machine(
     axis_name: str | None = None,
 ) -> tuple:
     """:func:`jax_oracle.core.machine` on the model's KKT system r(z) = 0 at ``load``."""
-    k = kernels(layout)
+    k = autodiff_functions(layout)
     return machine(
         lambda z: k.residual(params, z, load),
         lambda z: k.jacobian(params, z, load),
@@ -69,7 +69,7 @@ def newton_loop(
     return finish(jax.lax.while_loop(cond, body, init(z0)))
 
 
-@kernel("newton_loop", runs_often=True)
+@traced("newton_loop", runs_often=True)
 def solve_loop(
     layout: TubeLayout, params: Any, z0: Array, load: Load, settings: Settings
 ) -> tuple[LoopState, StateData]:

@@ -32,8 +32,8 @@ from typing import Any
 import numpy as np
 
 from biplan._compile import linalg
-from biplan._compile.kernel import kernel
 from biplan._compile.setup import jnp
+from biplan._compile.traced import traced
 from biplan.geometry.layout import TubeLayout
 from biplan.model.lagrangian import (
     StateData,
@@ -184,13 +184,13 @@ def observation(
     )
 
 
-@kernel("observe", in_axes=(None, 0, 0))
+@traced("observe", in_axes=(None, 0, 0))
 def _observe_layout(layout: TubeLayout, p: ModelParams, z: Array, load: Load) -> Observation:
     """:func:`observe` with the layout's own reading of weak contacts."""
     return observe(layout, p, z, load, layout.options.weak_contacts_active)
 
 
-@kernel("observe_at_rest", in_axes=(None, 0))
+@traced("observe_at_rest", in_axes=(None, 0))
 def _observe_at_rest_layout(layout: TubeLayout, p: ModelParams, z: Array) -> Observation:
     """:func:`observe_at_rest` with the layout's own reading of weak contacts."""
     return observe_at_rest(layout, p, z, layout.options.weak_contacts_active)
@@ -203,7 +203,7 @@ def observe_at_rest(
     :func:`~biplan.model.lagrangian.state_data_at_rest`: the same observables, without
     evaluating the load point's Hessian (its coefficient vanishes at rest)."""
     data = state_data_at_rest(layout, p, z)
-    return observation(layout, p, z, AT_REST.for_kernel(), data, weak_contacts)
+    return observation(layout, p, z, AT_REST.for_jax(), data, weak_contacts)
 
 
 def observe_batch(

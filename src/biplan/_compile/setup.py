@@ -28,19 +28,16 @@ of 8 ms, and the 48-module Newton step 15× longer (docs/performance.md, "BLAS t
 biplan's matrices are small (n ≤ a few thousand) and its parallelism is across points and
 processes, so one thread each loses little even on an idle machine.
 
-``BIPLAN_FAST_COMPILE=on`` compiles the large batched kernels that compile long and run little
-(dynamics chunk, path kernel and corrector, Newton pool, batched relaxation and observation,
-band relaxation, design-map lanes) with a cheap pipeline (:data:`CHEAP_PIPELINE`, passed per
-kernel by :func:`kernel_options`: LLVM at -O0 without its expensive passes, and XLA:CPU's
-loop emitters instead of its fusion emitters): they compile 40–60 % faster and run up to ~2×
-slower, which pays for short runs dominated by compilation (the test suite sets it;
-docs/performance.md, "Suite time"). The model's per-point kernels
-(:func:`biplan.model.assembly.kernels`: energy, residual, Jacobian, state, …) take it too where
-they are called on their own (they compile in 2–9 s and run in under a millisecond either
-way); inside a solver's kernel they are inlined, since JAX accepts compiler options only on a
-top-level ``jit``. The scalar Newton loop, which a displacement sweep calls hundreds of times
-(~5× slower with the whole cheap pipeline), takes only :data:`LIGHT_PIPELINE` (compiles
-~26 % faster, runs ~25 % slower).
+``BIPLAN_FAST_COMPILE=on`` compiles the JAX functions that compile long and run little (the
+tests' oracle loops: the JAX Newton, dynamics, band relaxation, observation) with a cheap
+pipeline (:data:`CHEAP_PIPELINE`, passed per function by :func:`xla_options`: LLVM at -O0
+without its expensive passes, and XLA:CPU's loop emitters instead of its fusion emitters):
+they compile 40–60 % faster and run up to ~2× slower, which pays where compilation dominates
+(the test suite sets it; docs/performance.md, "Suite time"). The model's per-point autodiff
+functions (:func:`biplan.model.assembly.autodiff_functions`: energy, residual, Jacobian,
+state, …) and the sensitivities take it too (they compile in seconds and run in under a
+millisecond either way). A function called hundreds of times per run (``runs_often``) takes
+only :data:`LIGHT_PIPELINE` (compiles ~26 % faster, runs ~25 % slower).
 """
 
 from __future__ import annotations
@@ -206,13 +203,13 @@ __all__ = [
     "configure",
     "jax",
     "jnp",
-    "kernel_options",
     "lazy_jit",
     "memory_map_count",
-    "release_compiled_kernels",
+    "release_jax_executables",
+    "xla_options",
 ]
 
-#: Called by :func:`release_compiled_kernels` after ``jax.clear_caches()``: modules that hold
+#: Called by :func:`release_jax_executables` after ``jax.clear_caches()``: modules that hold
 #: compiled executables themselves register a function here that drops them.
 CLEAR_HOOKS: list[Callable[[], None]] = []
 
@@ -229,7 +226,7 @@ CHEAP_PIPELINE: dict[str, int | bool] = {
 LIGHT_PIPELINE: dict[str, int | bool] = {"xla_cpu_use_fusion_emitters": False}
 
 
-def kernel_options(runs_often: bool = False) -> dict[str, int | bool] | None:
+def xla_options(runs_often: bool = False) -> dict[str, int | bool] | None:
     """``compiler_options`` for ``jax.jit`` of a kernel: with ``BIPLAN_FAST_COMPILE`` on (read
     when the kernel is built) :data:`CHEAP_PIPELINE` for a kernel that compiles long and runs
     little, :data:`LIGHT_PIPELINE` for one that ``runs_often``; else None (XLA's default).
@@ -250,7 +247,7 @@ def memory_map_count() -> int:
     until JAX's caches drop it, and Linux caps a process at ``vm.max_map_count`` mappings
     (65,530 by default). A process that compiles ~20,000 executables — many tube layouts,
     or long eager (op-by-op) computations over many array shapes — then crashes with a
-    segmentation fault inside XLA's compiler. :func:`release_compiled_kernels` prevents it.
+    segmentation fault inside XLA's compiler. :func:`release_jax_executables` prevents it.
     """
     try:
         with open("/proc/self/maps", "rb") as f:
@@ -266,10 +263,10 @@ def _map_limit() -> int:
         return 65530
 
 
-def release_compiled_kernels(fraction: float = 0.5) -> bool:
+def release_jax_executables(fraction: float = 0.5) -> bool:
     """Drop every compiled JAX executable if this process uses over ``fraction`` of its maps.
 
-    Kernels compile again on their next call (seconds to minutes), so call this between
+    AutodiffFunctions compile again on their next call (seconds to minutes), so call this between
     independent pieces of work in long-running processes (test-suites, notebooks that build
     many layouts), not inside loops. Returns whether the caches were cleared.
     """
@@ -281,7 +278,7 @@ def release_compiled_kernels(fraction: float = 0.5) -> bool:
     import gc
 
     jax.clear_caches()
-    for hook in CLEAR_HOOKS:  # executables held outside JAX's caches (biplan._compile.kernel)
+    for hook in CLEAR_HOOKS:  # executables held outside JAX's caches (biplan._compile.traced)
         hook()
     gc.collect()
     return True

@@ -29,7 +29,8 @@ counted on stderr (also with ``--quiet``); a map in which every point failed is 
 the command exits with status 2.
 
 The work is the library's: :class:`~biplan.analysis.maps.execution.Execution` (where chunks
-run), :func:`biplan.io.map_runs.open_map` (chunk store, sweep, ``map.nc``) and
+run), :func:`biplan.io.sweepstore.open_map` (the chunk store; its
+:class:`~biplan.analysis.maps.runs.MapJob` sweeps and writes ``map.nc``) and
 :func:`biplan.plot.maps.write_map_figures`.
 """
 
@@ -176,7 +177,7 @@ def _run(config: Path, grid: Grid, ev: Evaluator, out: Path, execution: Executio
     """
     import biplan
     from biplan.analysis.maps.sweeps import apply_values, check_grid
-    from biplan.io.map_runs import open_map
+    from biplan.io.sweepstore import open_map
 
     tube = biplan.load_config(config)
     with options_named(_GRID_OPTIONS):

@@ -27,14 +27,21 @@ import hashlib
 import json
 import os
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
 from biplan._errors import ConfigError
+from biplan.analysis.maps import sweeps
+from biplan.analysis.maps.runs import MapJob
+from biplan.io.config import dump_config
 from biplan.io.netcdf import write_netcdf
 
-__all__ = ["MAP_FILE", "ChunkStore", "load_map", "save_map"]
+if TYPE_CHECKING:
+    from biplan.analysis.maps.sweeps import Evaluator, Grid
+    from biplan.model.tube import Tube
+
+__all__ = ["MAP_FILE", "ChunkStore", "load_map", "open_map", "save_map"]
 
 #: File name of the merged map in an output directory.
 MAP_FILE = "map.nc"
@@ -219,6 +226,10 @@ class ChunkStore:
     def map_path(self) -> Path:
         return self.directory / MAP_FILE
 
+    def write_map(self, ds: Any) -> Path:
+        """Write the merged map to :attr:`map_path` (:func:`save_map`); returns the path."""
+        return save_map(ds, self.map_path)
+
 
 def save_map(ds: Any, path: str | Path) -> Path:
     """Write a merged map Dataset to netCDF (h5netcdf), atomically."""
@@ -242,3 +253,47 @@ def load_map(path: str | Path) -> Any:
             return ds.load()
     except (OSError, ValueError) as err:
         raise ConfigError("map", str(path), f"a readable netCDF map ({err})") from None
+
+
+def open_map(
+    design: Tube,
+    grid: Grid,
+    evaluator: Evaluator,
+    out: Path,
+    *,
+    chunk_size: int,
+    resume: bool = False,
+) -> MapJob:
+    """The map of ``evaluator`` over ``grid`` to run into the directory ``out`` (chunks under
+    ``out/chunks``, the map in ``out/map.nc``); nothing is computed yet.
+
+    Parameters
+    ----------
+    design : Tube
+        The base design (with the grid checked against it:
+        :func:`~biplan.analysis.maps.sweeps.check_grid`).
+    grid : Grid
+    evaluator : Evaluator
+    out : Path
+        Output directory (created).
+    chunk_size : int
+        Points per chunk (the unit of work and of resumption).
+    resume : bool
+        Continue a killed run in ``out``: its finished chunks are reused.
+
+    Raises
+    ------
+    ConfigError
+        ``out``: a directory holding chunks of another run (without ``resume``), or chunk
+        files but no manifest; ``--resume``: a directory of another sweep.
+    """
+    description = {
+        "config": dump_config(design),
+        "quantity": evaluator.name,
+        "settings": evaluator.describe(),
+        "grid": {a.name: list(a.values) for a in grid.axes},
+        "chunk_size": chunk_size,
+    }
+    n_chunks = len(sweeps.chunk_indices(grid, chunk_size))
+    store = ChunkStore(out, description, n_chunks, resume)
+    return MapJob(design, grid, evaluator, chunk_size, store)

@@ -7,7 +7,7 @@ from typing import Any
 import numpy as np
 
 from biplan._compile.setup import jax, jnp
-from biplan.laws import _kernels as K
+from biplan.laws import _jax as K
 
 
 def _out(result: Any, *inputs: Any) -> Any:

@@ -1,12 +1,15 @@
-"""The compiled model of a tube: :class:`Model`, its per-layout :class:`Kernels` and :class:`Load`.
+"""The model of a tube: :class:`Model` (its compiled :class:`~biplan.model.system.System` and
+its JAX autodiff functions, :class:`AutodiffFunctions`) and :class:`Load`.
 
-:func:`kernels` ``jit``-compiles the pure functions of :mod:`biplan.model.potential` (energy,
-guides, gaps, load point) and :mod:`biplan.model.lagrangian` (the KKT residual, its Jacobian,
-the Hessians and the state data) once per tube *layout* (:class:`~biplan.geometry.TubeLayout`),
-with geometry and law numbers passed as traced parameters
-(:class:`~biplan.model.params.ModelParams`), so sweeping R, l, β or law coefficients never
-recompiles. :class:`Model` binds a tube to its kernels and parameters and evaluates them on
-NumPy arrays; the loads it takes are :class:`Load` (defined in :mod:`biplan.model.params`).
+:func:`autodiff_functions` ``jit``-compiles the pure functions of :mod:`biplan.model.potential`
+(energy, guides, gaps, load point) and :mod:`biplan.model.lagrangian` (the KKT residual, its
+Jacobian, the Hessians and the state data) once per tube *layout*
+(:class:`~biplan.geometry.TubeLayout`), with geometry and law numbers passed as traced
+parameters (:class:`~biplan.model.params.ModelParams`), so sweeping R, l, β or law
+coefficients never recompiles them. :class:`Model` binds a tube to its parameters, hands out
+its :class:`~biplan.model.system.System` (:meth:`Model.system`: what every solver iterates on)
+and evaluates the autodiff functions on NumPy arrays (the reference the compiled system is
+tested against); the loads it takes are :class:`Load` (defined in :mod:`biplan.model.params`).
 """
 
 from __future__ import annotations
@@ -25,9 +28,9 @@ from biplan.model.tube import Tube
 from biplan.options import ModelOptions
 
 if TYPE_CHECKING:
-    from biplan.model.autodiff import Kernels
+    from biplan.model.autodiff import AutodiffFunctions
 
-__all__ = ["Kernels", "Load", "Model", "kernels", "sizes"]
+__all__ = ["AutodiffFunctions", "Load", "Model", "autodiff_functions", "sizes"]
 
 Array = Any
 
@@ -38,11 +41,12 @@ def _law_rows(laws: tuple) -> np.ndarray:  # type: ignore[type-arg]
     return np.asarray([law.coefficients for law in laws], dtype=np.float64)
 
 
-def kernels(layout: TubeLayout) -> Kernels:
-    """The JAX kernels of a layout (:func:`biplan.model.autodiff.kernels`; imports JAX)."""
+def autodiff_functions(layout: TubeLayout) -> AutodiffFunctions:
+    """The JAX autodiff functions of a layout (:func:`biplan.model.autodiff.functions`;
+    imports JAX)."""
     from biplan.model import autodiff
 
-    return autodiff.kernels(layout)
+    return autodiff.functions(layout)
 
 
 class Model:
@@ -90,10 +94,10 @@ class Model:
         self.n_unknowns = self.n_coordinates + self.n_guides + self.n_contacts + 1
 
     @property
-    def kernels(self) -> Kernels:
-        """The JAX kernels of this model's layout (:mod:`biplan.model.autodiff`; the first use
-        imports JAX)."""
-        return kernels(self.layout)
+    def autodiff(self) -> AutodiffFunctions:
+        """The JAX autodiff functions of this model's layout (:mod:`biplan.model.autodiff`; the
+        first use imports JAX)."""
+        return autodiff_functions(self.layout)
 
     @property
     def options(self) -> ModelOptions:
@@ -193,78 +197,79 @@ class Model:
 
     def energy(self, q: Array) -> float:
         """Π(q) [N·mm]."""
-        return float(self.kernels.energy(self.params, self._q(q)))
+        return float(self.autodiff.energy(self.params, self._q(q)))
 
     def fold_energies(self, q: Array) -> tuple[np.ndarray, np.ndarray]:
         """Energy [N·mm] of each helical (N,) and circular (Nc,) fold."""
-        h, c = self.kernels.fold_energies(self.params, self._q(q))
+        h, c = self.autodiff.fold_energies(self.params, self._q(q))
         return np.asarray(h), np.asarray(c)
 
     def gradient(self, q: Array) -> np.ndarray:
         """∇Π(q) [N or N·mm per coordinate]."""
-        return np.asarray(self.kernels.gradient(self.params, self._q(q)))
+        return np.asarray(self.autodiff.gradient(self.params, self._q(q)))
 
     def hessian(self, q: Array) -> np.ndarray:
         """∇²Π(q)."""
-        return np.asarray(self.kernels.hessian(self.params, self._q(q)))
+        return np.asarray(self.autodiff.hessian(self.params, self._q(q)))
 
     def constraints(self, q: Array) -> np.ndarray:
         """Guide values g(q) [mm], (2N,)."""
-        return np.asarray(self.kernels.guides(self.params, self._q(q)))
+        return np.asarray(self.autodiff.guides(self.params, self._q(q)))
 
     def constraint_jacobian(self, q: Array) -> np.ndarray:
         """∂g/∂q, (2N, n_q)."""
-        return np.asarray(self.kernels.guide_jacobian(self.params, self._q(q)))
+        return np.asarray(self.autodiff.guide_jacobian(self.params, self._q(q)))
 
     def contact_gaps(self, q: Array) -> np.ndarray:
         """Contact gaps w_∂(q) [mm], (n_c,)."""
-        return np.asarray(self.kernels.contact_gaps(self.params, self._q(q)))
+        return np.asarray(self.autodiff.contact_gaps(self.params, self._q(q)))
 
     def contact_jacobian(self, q: Array) -> np.ndarray:
         """∂w_∂/∂q, (n_c, n_q)."""
-        return np.asarray(self.kernels.contact_jacobian(self.params, self._q(q)))
+        return np.asarray(self.autodiff.contact_jacobian(self.params, self._q(q)))
 
     def residual(self, z: Array, load: Load) -> np.ndarray:
         """KKT residual r(z) for the given load."""
-        return np.asarray(self.kernels.residual(self.params, jnp.asarray(z), load.for_kernel()))
+        return np.asarray(self.autodiff.residual(self.params, jnp.asarray(z), load.for_jax()))
 
     def jacobian(self, z: Array, load: Load) -> np.ndarray:
         """∂r/∂z, (n_z, n_z)."""
-        return np.asarray(self.kernels.jacobian(self.params, jnp.asarray(z), load.for_kernel()))
+        return np.asarray(self.autodiff.jacobian(self.params, jnp.asarray(z), load.for_jax()))
 
     def jacobian_autodiff(self, z: Array, load: Load) -> np.ndarray:
         """∂r/∂z by forward-mode autodiff of the whole residual (reference for tests)."""
         return np.asarray(
-            self.kernels.jacobian_autodiff(self.params, jnp.asarray(z), load.for_kernel())
+            self.autodiff.jacobian_autodiff(self.params, jnp.asarray(z), load.for_jax())
         )
 
     def state(self, z: Array, load: Load) -> StateData:
-        """Energies, endpoint, Lagrangian Hessian and constraint Jacobians at z (one kernel)."""
-        out = self.kernels.state(self.params, jnp.asarray(z), load.for_kernel())
+        """Energies, endpoint, Lagrangian Hessian and constraint Jacobians at z (one JAX
+        function)."""
+        out = self.autodiff.state(self.params, jnp.asarray(z), load.for_jax())
         return jax.tree_util.tree_map(np.asarray, out)
 
     def lagrangian_hessian(self, z: Array, load: Load) -> np.ndarray:
         """∇²_q L at z: energy, load and multiplier curvature (MODEL CHOICE S2)."""
         return np.asarray(
-            self.kernels.lagrangian_hessian(self.params, jnp.asarray(z), load.for_kernel())
+            self.autodiff.lagrangian_hessian(self.params, jnp.asarray(z), load.for_jax())
         )
 
     def endpoint(self, q: Array) -> chain.Endpoint:
         """(u_z [mm], u_r [mm], θ [rad]) of the free end relative to q = 0 (MODEL R2)."""
-        e = self.kernels.endpoint(self.params, self._q(q))
+        e = self.autodiff.endpoint(self.params, self._q(q))
         return chain.Endpoint(float(e.u_z), float(e.u_r), float(e.theta))
 
     def load_displacement(self, q: Array) -> float:
         """Axial displacement z_p [mm] of the load point (work conjugate of F)."""
-        return float(self.kernels.load_height(self.params, self._q(q)))
+        return float(self.autodiff.load_height(self.params, self._q(q)))
 
     def load_gradient(self, q: Array) -> np.ndarray:
         """∂z_p/∂q."""
-        return np.asarray(self.kernels.load_gradient(self.params, self._q(q)))
+        return np.asarray(self.autodiff.load_gradient(self.params, self._q(q)))
 
     def kinematics(self, q: Array) -> chain.Kinematics:
         """All kinematic quantities at q (NumPy arrays): nodes, guides, elongations, frames."""
-        kin = self.kernels.kinematics(self.params, self._q(q))
+        kin = self.autodiff.kinematics(self.params, self._q(q))
         return chain.Kinematics(*(np.asarray(v) for v in kin))
 
     def helical_boundary(self, q: Array) -> np.ndarray:
@@ -282,7 +287,7 @@ class Model:
 
     def global_nodes(self, q: Array) -> np.ndarray:
         """Deformed nodes in the global development plane, (N, 7, 2) [mm] (z, s)."""
-        return np.asarray(chain.global_nodes(self.kernels.kinematics(self.params, self._q(q))))
+        return np.asarray(chain.global_nodes(self.autodiff.kinematics(self.params, self._q(q))))
 
     def cylinder_nodes(self, q: Array) -> np.ndarray:
         """Deformed nodes wrapped onto the cylinder of radius R, (N, 7, 3) [mm] (x, y, z)."""

@@ -1,12 +1,13 @@
-"""The JAX kernels of a tube layout: the autodiff model behind :class:`~biplan.model.Model`'s
-evaluation methods, the sensitivities and the readings the compiled system does not cover.
+"""The JAX autodiff functions of a tube layout: the autodiff model behind
+:class:`~biplan.model.Model`'s evaluation methods, and the sensitivities (the compiled
+system, :mod:`biplan.model.system`, is tested against them).
 
-:func:`kernels` ``jit``-compiles the pure functions of :mod:`biplan.model.potential` (energy,
+:func:`functions` ``jit``-compiles the pure functions of :mod:`biplan.model.potential` (energy,
 guides, gaps, load point) and :mod:`biplan.model.lagrangian` (the KKT residual, its Jacobian,
 the Hessians and the state data) once per tube *layout*, with geometry and law numbers passed
 as traced parameters (:class:`~biplan.model.params.ModelParams`), so sweeping R, l, β or law
 coefficients never recompiles. Importing this module imports JAX; the model imports it only
-when one of these kernels is asked for (:attr:`biplan.model.Model.kernels`).
+when one of these functions is asked for (:attr:`biplan.model.Model.autodiff`).
 """
 
 from __future__ import annotations
@@ -16,8 +17,8 @@ from collections.abc import Callable
 from dataclasses import dataclass
 from typing import Any
 
-from biplan._compile.kernel import Kernel
 from biplan._compile.setup import jax
+from biplan._compile.traced import Traced
 from biplan.geometry import chain
 from biplan.geometry.layout import TubeLayout
 from biplan.model.lagrangian import (
@@ -36,11 +37,11 @@ from biplan.model.potential import (
     load_height,
 )
 
-__all__ = ["Kernels", "kernels"]
+__all__ = ["AutodiffFunctions", "functions"]
 
 
 @dataclass(frozen=True)
-class Kernels:
+class AutodiffFunctions:
     """The jitted functions of one layout (all take ``params`` first)."""
 
     energy: Any
@@ -62,7 +63,7 @@ class Kernels:
     kinematics: Any
 
 
-#: The model's per-point kernels (:func:`kernels`): functions of (layout, params, …). LLVM's
+#: The model's per-point functions (:func:`functions`): of (layout, params, …). LLVM's
 #: cheap pipeline only with BIPLAN_FAST_COMPILE=on (the test suite): each of these compiles in
 #: 2–9 s and runs in under a millisecond.
 _POINT_FUNCTIONS: dict[str, Callable[..., Any]] = {
@@ -84,10 +85,10 @@ _POINT_FUNCTIONS: dict[str, Callable[..., Any]] = {
     "load_gradient": jax.grad(load_height, argnums=2),
     "kinematics": _kin,
 }
-_POINT_KERNELS = {name: Kernel(fun, name) for name, fun in _POINT_FUNCTIONS.items()}
+_POINT_KERNELS = {name: Traced(fun, name) for name, fun in _POINT_FUNCTIONS.items()}
 
 
 @functools.lru_cache(maxsize=64)
-def kernels(layout: TubeLayout) -> Kernels:
-    """The compiled per-point kernels of a tube layout (each built on first use)."""
-    return Kernels(**{name: k.compiled(layout) for name, k in _POINT_KERNELS.items()})
+def functions(layout: TubeLayout) -> AutodiffFunctions:
+    """The compiled per-point autodiff functions of a tube layout (each built on first use)."""
+    return AutodiffFunctions(**{name: k.compiled(layout) for name, k in _POINT_KERNELS.items()})

@@ -17,7 +17,8 @@ residual (MODEL §11) is::
 with φ_SFB(w, λ) = √(w² + λ² + ε²) − (w + λ) (SI Eq. sfb). The residual, the KKT Jacobian and
 the Hessians are assembled from per-element autodiff (:mod:`biplan.model.elements`; the whole-tube
 autodiff of L is the test oracle, :mod:`biplan.model.oracle`). Every function here is pure in
-(layout, params, z, load); :func:`biplan.model.assembly.kernels` compiles them once per layout.
+(layout, params, z, load); :func:`biplan.model.assembly.autodiff_functions` compiles them once
+per layout.
 """
 
 from __future__ import annotations
@@ -108,13 +109,13 @@ def residual(layout: TubeLayout, p: ModelParams, z: Array, load: Load) -> Array:
 def residual_at_rest(layout: TubeLayout, p: ModelParams, z: Array) -> Array:
     """:func:`residual` at :data:`~biplan.model.params.AT_REST`. There the load point's terms
     vanish ((μd − F) ∇z_p = 0 and the last row is μ), so they are not evaluated."""
-    return _residual(layout, p, z, AT_REST.for_kernel(), loaded=False)
+    return _residual(layout, p, z, AT_REST.for_jax(), loaded=False)
 
 
 def kkt_jacobian_at_rest(layout: TubeLayout, p: ModelParams, z: Array) -> Array:
     """:func:`kkt_jacobian` at :data:`~biplan.model.params.AT_REST`, without the load point's
     terms (as :func:`residual_at_rest`)."""
-    return _kkt_jacobian(layout, p, z, AT_REST.for_kernel(), loaded=False)
+    return _kkt_jacobian(layout, p, z, AT_REST.for_jax(), loaded=False)
 
 
 def _residual(layout: TubeLayout, p: ModelParams, z: Array, load: Load, loaded: bool) -> Array:
@@ -248,7 +249,7 @@ def state_data_at_rest(layout: TubeLayout, p: ModelParams, z: Array) -> StateDat
     """:func:`state_data` at :data:`~biplan.model.params.AT_REST`: the Hessian of the load
     point's displacement z_p, whose coefficient μd − F vanishes there and which costs more
     than the rest of the state's data together, is not evaluated (z_p and ∇z_p are)."""
-    return _state(layout, p, z, AT_REST.for_kernel(), True, _second_order_blocks(p), False)
+    return _state(layout, p, z, AT_REST.for_jax(), True, _second_order_blocks(p), False)
 
 
 def state_from_jacobian(
@@ -319,7 +320,7 @@ def reduced_kkt_jacobian_at_rest(layout: TubeLayout, p: ModelParams, v: Array) -
     t = reduced_terms(layout, p, v[:nx], lam_c)
     no_guides = jnp.zeros((0, nx))
     return kkt_matrix(
-        p, AT_REST.for_kernel(), t.hessian, no_guides, t.gap_jacobian, jnp.zeros(nx), t.gaps, lam_c
+        p, AT_REST.for_jax(), t.hessian, no_guides, t.gap_jacobian, jnp.zeros(nx), t.gaps, lam_c
     )
 
 

@@ -88,7 +88,7 @@ class Load(NamedTuple):
     def is_displacement_controlled(self) -> bool:
         return bool(float(self.displacement_control) > 0.5)
 
-    def for_kernel(self) -> Load:
+    def for_jax(self) -> Load:
         """The form every compiled kernel is called with: weakly typed JAX scalars, whatever
         the caller passed (Python or NumPy floats; arrays are passed on). One input type per
         kernel, so no kernel is traced and compiled once per scalar type."""

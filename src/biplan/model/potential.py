@@ -23,7 +23,7 @@ import numpy as np
 from biplan._compile.setup import jax, jnp, lazy_jit
 from biplan.geometry import chain
 from biplan.geometry.layout import TubeLayout
-from biplan.laws import _kernels as law_kernels
+from biplan.laws import _jax as law_jax
 from biplan.model import elements
 from biplan.model.params import ModelParams
 from biplan.options import ContactForm
@@ -41,7 +41,7 @@ __all__ = [
 Array = Any
 
 
-def _coeffs(row: Array) -> law_kernels.Coefficients:
+def _coeffs(row: Array) -> law_jax.Coefficients:
     return (row[0], row[1], row[2], row[3], row[4])
 
 
@@ -61,11 +61,11 @@ def _energies(layout: TubeLayout, p: ModelParams, kin: chain.Kinematics) -> tupl
     """Helical and circular fold energies of given kinematics (a nested ``jit``, as
     :func:`_kin`)."""
     w = kin.helical
-    helical = law_kernels.field_energy(w[:, 0], w[:, 1], kin.helical_length, _coeffs(p.helical.T))
+    helical = law_jax.field_energy(w[:, 0], w[:, 1], kin.helical_length, _coeffs(p.helical.T))
     if layout.n_connectors == 0:
         return helical, jnp.zeros((0,))
     t = chain.tables(layout)
-    per_field = law_kernels.field_energy(
+    per_field = law_jax.field_energy(
         kin.field_start, kin.field_end, kin.field_length, _coeffs(p.circular[t.field_conn].T)
     )
     circ = jax.ops.segment_sum(per_field, t.field_conn, num_segments=layout.n_connectors)
@@ -82,11 +82,11 @@ def phase_fractions(layout: TubeLayout, p: ModelParams, q: Array) -> Array:
     (N + Nc, 3), helical folds then circular (length-weighted over a connector's fields)."""
     kin = _kin(layout, p, q)
     w = kin.helical
-    hel = law_kernels.phase_fractions(w[:, 0], w[:, 1], _coeffs(p.helical.T))
+    hel = law_jax.phase_fractions(w[:, 0], w[:, 1], _coeffs(p.helical.T))
     if layout.n_connectors == 0:
         return hel
     t = chain.tables(layout)
-    per = law_kernels.phase_fractions(
+    per = law_jax.phase_fractions(
         kin.field_start, kin.field_end, _coeffs(p.circular[t.field_conn].T)
     )
     length = kin.field_length

@@ -22,7 +22,7 @@ __all__ = ["branch_fractions", "circular_fractions", "phase_fractions", "segment
 def segment_fractions(w0: float, wl: float, law: np.ndarray, out: np.ndarray) -> None:
     """Adds the fractions of a linear field from w0 to wL [mm] on the closed, spinodal and open
     branch of law = (k1, k2, k3, w1, w2) to ``out`` (3,)
-    (:func:`biplan.laws._kernels.phase_fractions`)."""
+    (:func:`biplan.laws._jax.phase_fractions`)."""
     w1, w2 = law[3], law[4]
     lo, hi = min(w0, wl), max(w0, wl)
     width = hi - lo

@@ -79,6 +79,13 @@ class Newton:
         if not isinstance(self.contact_restart, bool):
             raise ConfigError("Newton.contact_restart", self.contact_restart, "True or False")
 
+    def loop_settings(self) -> np.ndarray:
+        """These settings as the compiled Newton takes them
+        (:func:`biplan.solvers.iteration.settings_array`; ``contact_restart`` is the driver's)."""
+        return settings_array(
+            self.atol, self.max_steps, self.max_backtracks, self.armijo, self.free_steps
+        )
+
 
 @dataclass(frozen=True)
 class Solution:
@@ -245,9 +252,7 @@ def _solve_compiled(
     model: Model, system: System, method: Newton, z0: np.ndarray, load: Load, throw: bool
 ) -> Solution:
     """:func:`solve_equilibrium` by the compiled Newton on the model's System."""
-    settings = settings_array(
-        method.atol, method.max_steps, method.max_backtracks, method.armijo, method.free_steps
-    )
+    settings = method.loop_settings()
     z, r, f, jac, steps, status = iteration.solve_system(system, z0, settings)
     restarts = 0
     q0, lam0, lam_c0, mu0 = model.split(z0)

@@ -18,7 +18,6 @@ import numpy as np
 
 from biplan.model.assembly import Load, Model
 from biplan.solvers import batch
-from biplan.solvers.iteration import settings_array
 from biplan.solvers.newton import Newton
 from biplan.solvers.observation import Observation, observe
 
@@ -26,12 +25,6 @@ __all__ = ["CHORD_ITERATIONS", "point_solvers", "ramp_compiled"]
 
 #: Most chord iterations (the previous equilibrium's Jacobian, residuals only) per load step.
 CHORD_ITERATIONS = 8
-
-
-def _settings(newton: Newton) -> np.ndarray:
-    return settings_array(
-        newton.atol, newton.max_steps, newton.max_backtracks, newton.armijo, newton.free_steps
-    )
 
 
 def ramp_compiled(
@@ -49,7 +42,7 @@ def ramp_compiled(
     z_last : ndarray (len(models), n_z)
         The last converged packed state of each design.
     """
-    s = _settings(newton)
+    s = newton.loop_settings()
     f = np.ascontiguousarray(forces, dtype=float)
     outs = []
     for m in models:

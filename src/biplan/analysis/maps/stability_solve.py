@@ -20,7 +20,6 @@ from biplan.analysis.maps.stability_search import same_equilibrium
 from biplan.model.assembly import Model
 from biplan.model.system import System
 from biplan.solvers import batch
-from biplan.solvers.iteration import settings_array
 from biplan.solvers.newton import Newton, Status
 from biplan.solvers.observation import observe
 
@@ -61,9 +60,7 @@ class CompiledTasks:
         """(z (n, n_z), Status values (n,)) of the tasks: point ``rows`` (n,), start ``z0``
         (n, n_z), prescribed load-point displacement ``u`` [mm] (n,); each task's result is
         one :func:`biplan.solvers.iteration.newton` solve."""
-        s = settings_array(
-            newton.atol, newton.max_steps, newton.max_backtracks, newton.armijo, newton.free_steps
-        )
+        s = newton.loop_settings()
         z = np.array(z0, dtype=float)
         status = np.empty(len(rows), dtype=np.int64)
         for j in np.unique(rows):

@@ -41,8 +41,8 @@ from typing import Any
 
 import numpy as np
 
-from biplan._compile.kernel import kernel
 from biplan._compile.setup import jax, jnp
+from biplan._compile.traced import traced
 from biplan._errors import ConfigError
 from biplan.analysis.sensitivity.parameters import (
     AngleParameter,
@@ -217,7 +217,7 @@ def _observables(layout: TubeLayout, p: Any, z: Array, load: Any) -> Array:
     )
 
 
-@kernel("sensitivity", statics=3)
+@traced("sensitivity", statics=3)
 def _first_order(
     layout: TubeLayout,
     angle: AngleParameter,
@@ -243,7 +243,7 @@ def _first_order(
     return observe(v, z, maps), y_z, y_v, kkt_jacobian(layout, p, z, load), r_v
 
 
-@kernel("min_eigenvalue_sensitivity", statics=3)
+@traced("min_eigenvalue_sensitivity", statics=3)
 def _eigen(
     layout: TubeLayout,
     angle: AngleParameter,

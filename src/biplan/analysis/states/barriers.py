@@ -224,9 +224,7 @@ def _refine(
     """(z, status, ‖r‖∞, state data at z) of the Newton refinement of the KKT system at rest
     from z0 (:func:`biplan.solvers.iteration.newton`)."""
     m = neb.refine
-    settings = iteration.settings_array(
-        m.atol, m.max_steps, m.max_backtracks, m.armijo, m.free_steps
-    )
+    settings = m.loop_settings()
     z, r, f, jac, _, status = iteration.solve_system(system, z0, settings)
     data = system.state(z, jac if np.isfinite(f) else None)
     return z, int(status), float(np.max(np.abs(r))), data

@@ -123,21 +123,15 @@ class Departure:
     lands_in_target: bool | None = None
 
 
-def _settings(newton: Newton) -> np.ndarray:
-    return iteration.settings_array(
-        newton.atol, newton.max_steps, newton.max_backtracks, newton.armijo, newton.free_steps
-    )
-
-
 class _Stepper:
     """Newton solves and stability checks at one load value."""
 
     def __init__(self, model: Model, ramp: Ramp) -> None:
         self.model, self.ramp = model, ramp
         self.system = model.system()
-        self.settings = _settings(ramp.newton)
+        self.settings = ramp.newton.loop_settings()
         # the proximal sub-problems are solved inexactly (as in quasistatic.proximal_descent)
-        self.sub_settings = _settings(inexact_newton(ramp.newton))
+        self.sub_settings = inexact_newton(ramp.newton).loop_settings()
         self.d = 1.0 if ramp.displacement_control else 0.0
 
     def load(self, value: float) -> Load:

@@ -36,7 +36,6 @@ from biplan.geometry import FoldRef
 from biplan.model.assembly import Model
 from biplan.model.tube import Tube
 from biplan.solvers import lanes, observation, relax_loop
-from biplan.solvers.iteration import settings_array
 from biplan.solvers.status import Status
 
 if TYPE_CHECKING:
@@ -153,9 +152,7 @@ def relax_seeds(
     called after each block.
     """
     newton = settings.newton
-    method = settings_array(
-        newton.atol, newton.max_steps, newton.max_backtracks, newton.armijo, newton.free_steps
-    )
+    method = newton.loop_settings()
     data = model.system().data
     n_z = model.n_unknowns
     k, chunk = len(target), settings.chunk

@@ -10,7 +10,7 @@ from biplan.geometry import chain
 from biplan.geometry.development import spans
 from biplan.geometry.layout import TubeLayout
 from biplan.geometry.module import guides, helical_boundary
-from biplan.laws import _kernels as law_kernels
+from biplan.laws import _jax as law_jax
 from biplan.model.elements.topology import place_matrix, place_vector, topology
 from biplan.options import ContactForm
 
@@ -47,7 +47,7 @@ def module_lagrangian(
     ``multipliers`` = (λ_gC, λ_gF, λ_∂0, λ_∂a); ``coeffs`` the helical law row (5,).
     """
     w = helical_boundary(x, ref, n_sp)
-    energy = law_kernels.field_energy(w[0], w[1], length, tuple(coeffs))
+    energy = law_jax.field_energy(w[0], w[1], length, tuple(coeffs))
     return energy + multipliers[:2] @ guides(x, ref, n_c) - multipliers[2:] @ w
 
 
@@ -115,7 +115,7 @@ def connector_gaps(
         d.flip,
     )
     length = d.s[d.field_end] - d.s[d.field_start]
-    energies = d.field_mask * law_kernels.field_energy(
+    energies = d.field_mask * law_jax.field_energy(
         w[d.field_start], w[d.field_end], length, tuple(d.coeffs)
     )
     pts = w[d.gap_point]
@@ -226,7 +226,7 @@ def local_terms(
 
     def mod_values(x: Array, m: Array, r: Array, nc_: Array, nsp: Array, k: Array) -> Any:
         rows = module_constraints(x, r, nc_, nsp)
-        return rows, law_kernels.field_energy(rows[2], rows[3], a, tuple(k))
+        return rows, law_jax.field_energy(rows[2], rows[3], a, tuple(k))
 
     grad_m, cons_m, helical_energy, hess_m, jac_m = _evaluate(mod_lag, mod_values, second_order)(
         q[topo.module_dofs], mult, ref, n_c, n_sp, p.helical

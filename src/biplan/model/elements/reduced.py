@@ -48,7 +48,7 @@ from biplan.geometry import chain
 from biplan.geometry.development import spans
 from biplan.geometry.layout import TubeLayout
 from biplan.geometry.module import PIVOT, helical_boundary
-from biplan.laws import _kernels as law_kernels
+from biplan.laws import _jax as law_jax
 from biplan.model.elements.local import (
     ConnectorData,
     _connector_data,
@@ -140,7 +140,7 @@ def _module_energy(
     u: Array, ref: Array, n_c: Array, n_sp: Array, length: Array, coeffs: Array, k: Array
 ) -> Array:
     w = helical_boundary(_module_q(u, ref, n_c), ref, n_sp)
-    return law_kernels.field_energy(w[0], w[1], length, tuple(coeffs)) + _penalty(w, k)
+    return law_jax.field_energy(w[0], w[1], length, tuple(coeffs)) + _penalty(w, k)
 
 
 def _connector_energy(
@@ -279,7 +279,7 @@ class ReducedTerms(NamedTuple):
 def _module_lagrangian(y: Array, m: Array, *args: Any) -> Array:
     ref, n_c, n_sp, length, coeffs = args
     w = helical_boundary(_module_q(y[0], ref, n_c), ref, n_sp)
-    return law_kernels.field_energy(w[0], w[1], length, tuple(coeffs)) - m @ w
+    return law_jax.field_energy(w[0], w[1], length, tuple(coeffs)) - m @ w
 
 
 def _module_values(y: Array, m: Array, *args: Any) -> tuple[Array, Array]:

@@ -61,7 +61,7 @@ Quad = tuple[float, float, float, float]
 Law = np.ndarray | tuple[float, float, float, float, float]
 
 #: Below this elongation difference [mm] a field that straddles a breakpoint is integrated on
-#: the branch of its midpoint (as :data:`biplan.laws._kernels.SPLIT_TOLERANCE`).
+#: the branch of its midpoint (as :data:`biplan.laws._jax.SPLIT_TOLERANCE`).
 SPLIT_TOLERANCE = 1e-6
 
 

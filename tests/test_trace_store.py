@@ -1,4 +1,4 @@
-"""The kernel store (``biplan._compile.kernel``): kernels exported once, reloaded without
+"""The trace store (``biplan._compile.traced``): kernels exported once, reloaded without
 tracing."""
 
 from __future__ import annotations
@@ -15,10 +15,10 @@ from typing import NamedTuple
 import numpy as np
 import pytest
 
-from biplan._compile import kernel as _kernels
 from biplan._compile import setup as _jax
-from biplan._compile.kernel import StoredKernel, stored_jit
-from biplan._compile.setup import jax, jnp, kernel_options
+from biplan._compile import traced as _traced
+from biplan._compile.setup import jax, jnp, xla_options
+from biplan._compile.traced import StoredJit, stored_jit
 from biplan.model.lagrangian import residual
 from biplan.model.params import Load
 
@@ -41,7 +41,7 @@ def _cubic(params: dict, x: jax.Array) -> Pair:
 @pytest.fixture
 def store(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> Path:
     monkeypatch.setattr(_jax, "CACHE_DIR", tmp_path)
-    monkeypatch.delenv("BIPLAN_KERNEL_STORE", raising=False)
+    monkeypatch.delenv("BIPLAN_TRACE_STORE", raising=False)
     return tmp_path / "kernels"
 
 
@@ -60,7 +60,7 @@ def test_a_stored_kernel_equals_jit_and_is_read_back(store, monkeypatch) -> None
     np.testing.assert_allclose(out.value, 2.0 ** (1 / 3), rtol=1e-15)
     assert len(list(store.glob("cubic-*.kernel"))) == 1
     # a new kernel object (a new process) reads the entry instead of tracing
-    monkeypatch.setattr(StoredKernel, "_export", _refuse_export)
+    monkeypatch.setattr(StoredJit, "_export", _refuse_export)
     again = stored_jit(_cubic, "cubic", key="k1")
     np.testing.assert_array_equal(again(params, x).value, reference.value)
     assert again._cache_size() == 1
@@ -75,7 +75,7 @@ def test_a_stored_kernel_equals_jit_and_is_read_back(store, monkeypatch) -> None
 def test_an_edited_biplan_never_reads_a_stale_kernel(store, monkeypatch) -> None:
     params, x = {"c": jnp.asarray(2.0)}, np.ones(3)
     stored_jit(_cubic, "cubic")(params, x)
-    monkeypatch.setattr(_kernels, "_source_fingerprint", lambda: "edited")
+    monkeypatch.setattr(_traced, "_source_fingerprint", lambda: "edited")
     stored_jit(_cubic, "cubic")(params, x)
     assert len(list(store.glob("cubic-*.kernel"))) == 2
 
@@ -89,16 +89,16 @@ def test_the_fingerprint_covers_every_module_of_the_package(tmp_path, monkeypatc
     copy = tmp_path / "biplan"
     shutil.copytree(package, copy, ignore=shutil.ignore_patterns("__pycache__"))
     fake = copy / "_compile" / "kernel.py"
-    monkeypatch.setattr(_kernels, "__file__", str(fake))
-    _kernels._source_fingerprint.cache_clear()
+    monkeypatch.setattr(_traced, "__file__", str(fake))
+    _traced._source_fingerprint.cache_clear()
     try:
-        before = _kernels._source_fingerprint()
+        before = _traced._source_fingerprint()
         solver = copy / "solvers" / "dynamics.py"
         solver.write_text(solver.read_text() + "\n# edited\n")
-        _kernels._source_fingerprint.cache_clear()
-        assert _kernels._source_fingerprint() != before
+        _traced._source_fingerprint.cache_clear()
+        assert _traced._source_fingerprint() != before
     finally:
-        _kernels._source_fingerprint.cache_clear()
+        _traced._source_fingerprint.cache_clear()
 
 
 def test_a_damaged_entry_is_exported_again(store) -> None:
@@ -112,7 +112,7 @@ def test_a_damaged_entry_is_exported_again(store) -> None:
 
 
 def test_store_off_is_plain_jit(store, monkeypatch) -> None:
-    monkeypatch.setenv("BIPLAN_KERNEL_STORE", "off")
+    monkeypatch.setenv("BIPLAN_TRACE_STORE", "off")
     params, x = {"c": jnp.asarray(2.0)}, np.ones(2)
     out = stored_jit(_cubic, "cubic")(params, x)
     np.testing.assert_allclose(out.value, 2.0 ** (1 / 3), rtol=1e-15)
@@ -132,9 +132,9 @@ def test_a_model_kernel_equals_the_jit_of_its_function(model1) -> None:
     bit for bit."""
     model = model1
     z = np.asarray(model.pack(model.zeros())) + 0.01
-    load = Load.of_force(0.3).for_kernel()
-    stored = model.kernels.residual(model.params, jnp.asarray(z), load)
-    plain = jax.jit(functools.partial(residual, model.layout), compiler_options=kernel_options())(
+    load = Load.of_force(0.3).for_jax()
+    stored = model.autodiff.residual(model.params, jnp.asarray(z), load)
+    plain = jax.jit(functools.partial(residual, model.layout), compiler_options=xla_options())(
         model.params, jnp.asarray(z), load
     )
     np.testing.assert_array_equal(np.asarray(stored), np.asarray(plain))
@@ -142,21 +142,21 @@ def test_a_model_kernel_equals_the_jit_of_its_function(model1) -> None:
 
 SCRIPT = """
 import numpy as np
-from biplan._compile import kernel as _kernels
+from biplan._compile import traced as _traced
 from biplan._compile.setup import jnp
 def f(p, x):
     return {"y": jnp.sin(x) * p}
 if {refuse}:
     def refuse(*_):
         raise SystemExit("traced again")
-    _kernels.StoredKernel._export = refuse
-print(float(_kernels.stored_jit(f, "sine")(2.0, np.ones(3))["y"][0]))
+    _traced.StoredJit._export = refuse
+print(float(_traced.stored_jit(f, "sine")(2.0, np.ones(3))["y"][0]))
 """
 
 
 def test_a_later_process_reads_the_kernel_without_tracing(tmp_path: Path) -> None:
     env = {**os.environ, "BIPLAN_JAX_CACHE": str(tmp_path)}
-    env.pop("BIPLAN_KERNEL_STORE", None)
+    env.pop("BIPLAN_TRACE_STORE", None)
     outs = []
     for refuse in (False, True):
         run = subprocess.run(
@@ -173,13 +173,13 @@ def test_a_later_process_reads_the_kernel_without_tracing(tmp_path: Path) -> Non
 
 RACE = """
 import sys, time
-from biplan._compile import kernel as _kernels
+from biplan._compile import traced as _traced
 from biplan._compile.setup import jnp
 def f(x):
     print("traced", file=sys.stderr, flush=True)
     time.sleep(2.0)  # a slow trace: without the lock both processes would trace
     return jnp.cos(x)
-print(float(_kernels.stored_jit(f, "slow")(jnp.zeros(2))[0]))
+print(float(_traced.stored_jit(f, "slow")(jnp.zeros(2))[0]))
 """
 
 
@@ -187,7 +187,7 @@ def test_processes_building_the_same_kernel_trace_it_once(tmp_path: Path) -> Non
     """Two processes that need the same kernel at the same time: one traces and compiles,
     the other waits on the entry's lock and reads what the first stored."""
     env = {**os.environ, "BIPLAN_JAX_CACHE": str(tmp_path)}
-    env.pop("BIPLAN_KERNEL_STORE", None)
+    env.pop("BIPLAN_TRACE_STORE", None)
     procs = [
         subprocess.Popen(
             [sys.executable, "-c", RACE],
@@ -209,28 +209,28 @@ def test_a_held_entry_lock_is_waited_for_then_passed(tmp_path: Path, monkeypatch
     (a hung holder cannot stop the others); a free lock is taken at once."""
     import time
 
-    monkeypatch.setattr(_kernels, "LOCK_WAIT", 0.3)
+    monkeypatch.setattr(_traced, "LOCK_WAIT", 0.3)
     entry = tmp_path / "kernel.kernel"
     t0 = time.perf_counter()
-    with _kernels._entry_lock(entry):
+    with _traced._entry_lock(entry):
         free = time.perf_counter() - t0
         t0 = time.perf_counter()
-        with _kernels._entry_lock(entry):  # a second open file description: a second holder
+        with _traced._entry_lock(entry):  # a second open file description: a second holder
             waited = time.perf_counter() - t0
     assert free < 2.0 and 0.3 <= waited < 10.0  # generous bounds: a loaded CI machine
     assert (tmp_path / "kernel.lock").exists()
 
 
-def test_release_compiled_kernels_drops_the_stored_executables(store) -> None:
-    """The memory-map guard (``release_compiled_kernels``) reaches the executables that
+def test_release_jax_executables_drops_the_stored_executables(store) -> None:
+    """The memory-map guard (``release_jax_executables``) reaches the executables that
     stored kernels hold; the next call rebuilds them from the store."""
-    from biplan._compile.setup import release_compiled_kernels
+    from biplan._compile.setup import release_jax_executables
 
     params, x = {"c": jnp.asarray(3.0)}, np.ones(2)
     kernel = stored_jit(_cubic, "cubic")
     kernel(params, x)
     assert kernel._cache_size() == 1
-    assert release_compiled_kernels(0.0)
+    assert release_jax_executables(0.0)
     assert kernel._cache_size() == 0
     np.testing.assert_allclose(kernel(params, x).value, 3.0 ** (1 / 3), rtol=1e-15)
     assert kernel._cache_size() == 1
@@ -243,20 +243,20 @@ def test_an_entry_holds_no_pickle_and_names_only_loaded_namedtuples(store) -> No
     stored_jit(_cubic, "cubic")(params, x)
     (entry,) = store.glob("cubic-*.kernel")
     data = entry.read_bytes()
-    assert data.startswith(_kernels._MAGIC)
+    assert data.startswith(_traced._MAGIC)
     assert b"\x80\x04" not in data[:16]  # not a pickle stream
     size = int.from_bytes(data[8:16], "big")
     described = json.loads(data[16 : 16 + size])
     assert described == {"namedtuple": f"{__name__}:Pair", "of": ["*", "*"]}
     tree = jax.tree_util.tree_structure(Pair(0.0, 0.0))
-    assert _kernels.tree_of_description(described) == tree
+    assert _traced.tree_of_description(described) == tree
     nested = {"a": (1.0, [2.0, None]), "b": Pair(3.0, 4.0)}
     treedef = jax.tree_util.tree_structure(nested)
-    assert _kernels.tree_of_description(_kernels.describe_tree(treedef)) == treedef
+    assert _traced.tree_of_description(_traced.describe_tree(treedef)) == treedef
     # a class that no imported module defines (e.g. a planted entry) is never resolved
     text = json.dumps({"namedtuple": "os:system", "of": ["*"]}).encode()
     entry.write_bytes(data[:8] + len(text).to_bytes(8, "big") + text + data[16 + size :])
-    assert _kernels._read(entry) is None
+    assert _traced._read(entry) is None
     # and the kernel is then exported again, giving the same numbers
     again = stored_jit(_cubic, "cubic")(params, x)
     np.testing.assert_allclose(again.value, 3.0 ** (1 / 3), rtol=1e-15)

@@ -4,7 +4,7 @@ JAX's persistent compilation cache (:mod:`biplan._compile.setup`) skips XLA's co
 start,
 but every new process still *traces and lowers* each kernel to find its cache key: for
 biplan's large kernels that is most of a warm start (a warm ``biplan demo`` spent 28 of its
-49 s tracing and lowering; docs/performance.md, "Warm starts: the kernel store").
+49 s tracing and lowering; docs/performance.md, "Warm starts: the trace store").
 
 :func:`stored_jit` is ``jax.jit`` plus a store of the traced kernels. On its first call for an
 argument signature (pytree structure, shapes and dtypes) a kernel is exported
@@ -16,7 +16,7 @@ the cache is warm. The arithmetic is the kernel's own: results equal ``jax.jit``
 An entry is keyed by the kernel's name and static key (the tube layout, …), the signature,
 the JAX and jaxlib versions, the backend, and a fingerprint of biplan's own source files, so
 an edited or upgraded biplan never reads a stale kernel. The store follows the compilation
-cache: ``BIPLAN_JAX_CACHE=off`` turns both off; ``BIPLAN_KERNEL_STORE=off`` turns off only
+cache: ``BIPLAN_JAX_CACHE=off`` turns both off; ``BIPLAN_TRACE_STORE=off`` turns off only
 the store. A kernel that cannot be exported (or an unreadable entry) falls back to plain
 ``jax.jit`` (or is exported again), so the store can only save time. An entry holds no
 pickle: it is ``jax.export``'s serialized StableHLO module and a JSON description of the
@@ -50,16 +50,16 @@ import numpy as np
 from biplan._compile import setup as _jax
 from biplan._compile.setup import jax, jnp
 
-__all__ = ["Kernel", "StoredKernel", "kernel", "kernel_store", "stored_jit"]
+__all__ = ["StoredJit", "Traced", "stored_jit", "trace_store", "traced"]
 
 _OFF = {"", "0", "off", "none", "false"}  # as BIPLAN_JAX_CACHE, plus "false"
 #: Bumped when the entry format changes.
 _FORMAT = 2
 
 
-def kernel_store() -> Path | None:
+def trace_store() -> Path | None:
     """Folder of the stored kernels, or None when the store is off (read at each lookup)."""
-    if os.environ.get("BIPLAN_KERNEL_STORE", "on").lower() in _OFF:
+    if os.environ.get("BIPLAN_TRACE_STORE", "on").lower() in _OFF:
         return None
     if _jax.CACHE_DIR is None:
         return None
@@ -92,7 +92,7 @@ def _environment() -> str:
     )
 
 
-class StoredKernel:
+class StoredJit:
     """A jitted function whose traced form is stored on disk (:func:`stored_jit`).
 
     Call it like the ``jax.jit`` of ``fun``. Arguments are pytrees of arrays (NumPy or JAX)
@@ -119,7 +119,7 @@ class StoredKernel:
         self._lock = threading.Lock()
 
     def __repr__(self) -> str:
-        return f"StoredKernel({self._name}, {len(self._calls)} signature(s))"
+        return f"StoredJit({self._name}, {len(self._calls)} signature(s))"
 
     def _cache_size(self) -> int:
         """Compilations in this process (as ``jax.jit``'s ``_cache_size``)."""
@@ -152,7 +152,7 @@ class StoredKernel:
 
     # --- building a signature's callable --------------------------------------------------
     def _build(self, tree: Any, leaves: list[Any]) -> tuple[Callable[..., Any], Any]:
-        store = kernel_store()
+        store = trace_store()
         if store is None:
             return self._jit, None
         avals = [jax.ShapeDtypeStruct(x.shape, x.dtype) for x in leaves]
@@ -348,7 +348,7 @@ def _write(file: Path, entry: tuple[bytes, Any]) -> None:
         pass
 
 
-_KERNELS: weakref.WeakSet[StoredKernel] = weakref.WeakSet()
+_KERNELS: weakref.WeakSet[StoredJit] = weakref.WeakSet()
 
 
 def _forget_compiled() -> None:
@@ -365,7 +365,7 @@ def stored_jit(
     name: str,
     key: Any = None,
     compiler_options: dict[str, Any] | None = None,
-) -> StoredKernel:
+) -> StoredJit:
     """``jax.jit(fun, compiler_options=…)`` whose traced kernels are stored on disk.
 
     Parameters
@@ -373,27 +373,27 @@ def stored_jit(
     fun : callable
         The kernel; every argument is traced.
     name : str
-        Kernel name (the entries' file prefix).
+        Function name (the entries' file prefix).
     key : object
         What else determines the traced function — whatever ``fun`` closes over (a tube
         layout, a lane count); its ``repr`` enters the entry's key and must be deterministic.
     compiler_options : dict, optional
         As ``jax.jit``'s.
     """
-    kernel = StoredKernel(fun, name, key, compiler_options)
+    kernel = StoredJit(fun, name, key, compiler_options)
     _KERNELS.add(kernel)
     return kernel
 
 
-#: Compiled forms a :class:`Kernel` keeps (most recently used static arguments).
+#: Compiled forms a :class:`Traced` keeps (most recently used static arguments).
 KEPT = 32
 
 
-class Kernel:
+class Traced:
     """A pure kernel function and its compiled forms: the one kernel mechanism of biplan.
 
-    ``kernel(name)`` turns ``fun(*static, *traced)`` — a pure function whose first ``statics``
-    arguments (a tube layout, a lane count, …) fix the traced graph — into a :class:`Kernel`.
+    ``traced(name)`` turns ``fun(*static, *traced)`` — a pure function whose first ``statics``
+    arguments (a tube layout, a lane count, …) fix the traced graph — into a :class:`Traced`.
     Calling it calls ``fun`` itself (so other kernels inline it, ``vmap`` it, differentiate
     it); :meth:`compiled` returns the stored, jitted kernel of the static arguments
     (:func:`stored_jit`), built once per process and traced once per machine.
@@ -403,7 +403,7 @@ class Kernel:
     fun : callable
         The pure function.
     name : str
-        Kernel name (file prefix of the stored entries; ``jit(<name>)`` in JAX's logs).
+        Function name (file prefix of the stored entries; ``jit(<name>)`` in JAX's logs).
     statics : int
         How many leading arguments are static (hashable; their ``repr`` keys the store).
     in_axes : tuple, optional
@@ -413,7 +413,7 @@ class Kernel:
         ``axis_name`` keyword (collectives over the lanes, e.g. skipping work no lane needs).
     runs_often : bool
         Compiled with the light pipeline under ``BIPLAN_FAST_COMPILE`` (a kernel called
-        hundreds of times per run; :func:`biplan._compile.setup.kernel_options`).
+        hundreds of times per run; :func:`biplan._compile.setup.xla_options`).
     """
 
     def __init__(
@@ -431,7 +431,7 @@ class Kernel:
         self.in_axes = in_axes
         self.axis_name = axis_name
         self.runs_often = runs_often
-        self._compiled: collections.OrderedDict[tuple, StoredKernel] = collections.OrderedDict()
+        self._compiled: collections.OrderedDict[tuple, StoredJit] = collections.OrderedDict()
         self._lock = threading.Lock()
         functools.update_wrapper(self, fun)
 
@@ -439,9 +439,9 @@ class Kernel:
         return self.fun(*args, **kwargs)
 
     def __repr__(self) -> str:
-        return f"Kernel({self.name}, {len(self._compiled)} compiled)"
+        return f"Traced({self.name}, {len(self._compiled)} compiled)"
 
-    def compiled(self, *static: Any) -> StoredKernel:
+    def compiled(self, *static: Any) -> StoredJit:
         """The stored, jitted kernel of these static arguments (built once per process; the
         :data:`KEPT` most recently used are kept, so a process that sees many tube layouts
         frees the executables of old ones)."""
@@ -457,25 +457,25 @@ class Kernel:
                 if self.in_axes is not None:
                     fn = jax.vmap(fn, in_axes=self.in_axes, axis_name=self.axis_name)
                 key = static[0] if self.statics == 1 else static
-                found = stored_jit(fn, self.name, key, _jax.kernel_options(self.runs_often))
+                found = stored_jit(fn, self.name, key, _jax.xla_options(self.runs_often))
                 self._compiled[static] = found
                 if len(self._compiled) > KEPT:
                     self._compiled.popitem(last=False)
             return found
 
 
-def kernel(
+def traced(
     name: str,
     *,
     statics: int = 1,
     in_axes: tuple | None = None,
     axis_name: str | None = None,
     runs_often: bool = False,
-) -> Callable[[Callable[..., Any]], Kernel]:
-    """Decorator: the pure function as a :class:`Kernel` named ``name`` (its parameters:
-    :class:`Kernel`)."""
+) -> Callable[[Callable[..., Any]], Traced]:
+    """Decorator: the pure function as a :class:`Traced` named ``name`` (its parameters:
+    :class:`Traced`)."""
 
-    def wrap(fun: Callable[..., Any]) -> Kernel:
-        return Kernel(fun, name, statics, in_axes, axis_name, runs_often)
+    def wrap(fun: Callable[..., Any]) -> Traced:
+        return Traced(fun, name, statics, in_axes, axis_name, runs_often)
 
     return wrap

@@ -1,10 +1,10 @@
-"""A map run into a directory (``biplan map``): the chunk store, the sweep, ``map.nc``.
+"""A map run: the sweep of an evaluator over a grid into a chunk sink, then the merged map.
 
-* :func:`open_map` — the chunk store of a map in ``DIR/chunks``
-  (:class:`~biplan.io.sweepstore.ChunkStore`: ``resume`` continues a killed run without
-  recomputing its finished chunks) as a :class:`MapJob`, whose :meth:`MapJob.run` sweeps
-  the evaluator over the grid and writes the merged map to ``DIR/map.nc`` (netCDF; its
-  attributes hold the configuration and the settings); it returns a :class:`MapRun`.
+:class:`MapJob` (made by :func:`biplan.io.sweepstore.open_map`, which opens the chunk store of
+an output directory) runs the chunks its sink does not hold yet (``resume`` continues a killed
+run without recomputing its finished chunks) on an
+:class:`~biplan.analysis.maps.execution.Execution`, then has the sink write the merged map
+(``DIR/map.nc``); it returns a :class:`MapRun`. The files are :mod:`biplan.io.sweepstore`'s.
 """
 
 from __future__ import annotations
@@ -13,18 +13,31 @@ import time
 from collections.abc import Callable
 from dataclasses import dataclass
 from pathlib import Path
-from typing import TYPE_CHECKING, Any
+from typing import TYPE_CHECKING, Any, Protocol
 
 from biplan.analysis.maps import sweeps
-from biplan.io.config import dump_config
-from biplan.io.sweepstore import ChunkStore, save_map
 
 if TYPE_CHECKING:
     from biplan.analysis.maps.execution import Execution
     from biplan.analysis.maps.sweeps import Evaluator, Grid
     from biplan.model.tube import Tube
 
-__all__ = ["MapJob", "MapRun", "open_map"]
+__all__ = ["MapJob", "MapRun", "MapSink"]
+
+
+class MapSink(sweeps.ChunkSink, Protocol):
+    """A chunk sink that also writes the merged map (``biplan.io.sweepstore.ChunkStore``)."""
+
+    description: dict[str, Any]
+    n_chunks: int
+
+    @property
+    def reused(self) -> int: ...
+
+    @property
+    def damaged(self) -> dict[int, str]: ...
+
+    def write_map(self, ds: Any) -> Path: ...
 
 
 @dataclass(frozen=True)
@@ -67,15 +80,16 @@ class MapJob:
     ----------
     design, grid, evaluator, chunk_size
         What is swept (:func:`~biplan.analysis.maps.sweeps.sweep`).
-    store : ChunkStore
-        The chunk store in the output directory.
+    store : MapSink
+        Where the chunks and the map go (:class:`biplan.io.sweepstore.ChunkStore`, from
+        :func:`biplan.io.sweepstore.open_map`).
     """
 
     design: Tube
     grid: Grid
     evaluator: Evaluator
     chunk_size: int
-    store: ChunkStore
+    store: MapSink
 
     @property
     def damaged(self) -> dict[int, str]:
@@ -100,57 +114,13 @@ class MapJob:
         ds = sweeps.sweep(self.design, self.grid, self.evaluator, chunk_size=self.chunk_size,
                    sink=self.store, runner=runner, progress=progress)  # fmt: skip
         ds.attrs["config"] = self.store.description["config"]
-        save_map(ds, self.store.map_path)
+        path = self.store.write_map(ds)
         return MapRun(
             dataset=ds,
-            path=self.store.map_path,
+            path=path,
             n_points=self.grid.size,
             n_failed=int(ds.attrs["n_failed"]),
             n_chunks=self.store.n_chunks,
             reused=self.store.reused,
             seconds=time.perf_counter() - start,
         )
-
-
-def open_map(
-    design: Tube,
-    grid: Grid,
-    evaluator: Evaluator,
-    out: Path,
-    *,
-    chunk_size: int,
-    resume: bool = False,
-) -> MapJob:
-    """The map of ``evaluator`` over ``grid`` to run into the directory ``out`` (chunks under
-    ``out/chunks``, the map in ``out/map.nc``); nothing is computed yet.
-
-    Parameters
-    ----------
-    design : Tube
-        The base design (with the grid checked against it:
-        :func:`~biplan.analysis.maps.sweeps.check_grid`).
-    grid : Grid
-    evaluator : Evaluator
-    out : Path
-        Output directory (created).
-    chunk_size : int
-        Points per chunk (the unit of work and of resumption).
-    resume : bool
-        Continue a killed run in ``out``: its finished chunks are reused.
-
-    Raises
-    ------
-    ConfigError
-        ``out``: a directory holding chunks of another run (without ``resume``), or chunk
-        files but no manifest; ``--resume``: a directory of another sweep.
-    """
-    description = {
-        "config": dump_config(design),
-        "quantity": evaluator.name,
-        "settings": evaluator.describe(),
-        "grid": {a.name: list(a.values) for a in grid.axes},
-        "chunk_size": chunk_size,
-    }
-    n_chunks = len(sweeps.chunk_indices(grid, chunk_size))
-    store = ChunkStore(out, description, n_chunks, resume)
-    return MapJob(design, grid, evaluator, chunk_size, store)
