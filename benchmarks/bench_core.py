@@ -11,7 +11,7 @@ Prints, for the semi-bistable paper design (6 modules, 64 unknowns):
   tracing and lowering that a warm start no longer does;
 * two processes at once on a fresh cache (e.g. two Dask workers starting on the same design),
   with the store's build lock (one process traces and compiles each kernel, the other waits
-  and reads it) and without it (``_traced._entry_lock`` patched out): wall and CPU seconds;
+  and reads it) and without it (``_traced.entry_lock`` patched out): wall and CPU seconds;
 * warm solves — 40 displacement-controlled steps (0.02 → 0.8 mm) in this process, per step;
 * baseline — the same 40 steps with ``scipy.optimize.root`` (hybr, finite-difference
   Jacobian) on the *same jitted residual*, i.e. a favourable baseline (a plain NumPy residual
@@ -53,7 +53,7 @@ def _start(cache: str, store: str = "on") -> tuple[float, float]:
 UNLOCKED = """
 import contextlib
 from biplan._compile import traced as _traced
-_traced._entry_lock = lambda file: contextlib.nullcontext()
+_traced.entry_lock = lambda file: contextlib.nullcontext()
 """
 
 

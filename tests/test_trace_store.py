@@ -16,6 +16,7 @@ import numpy as np
 import pytest
 
 from biplan._compile import setup as _jax
+from biplan._compile import trace_entries
 from biplan._compile import traced as _traced
 from biplan._compile.setup import jax, jnp, xla_options
 from biplan._compile.traced import StoredJit, stored_jit
@@ -209,13 +210,13 @@ def test_a_held_entry_lock_is_waited_for_then_passed(tmp_path: Path, monkeypatch
     (a hung holder cannot stop the others); a free lock is taken at once."""
     import time
 
-    monkeypatch.setattr(_traced, "LOCK_WAIT", 0.3)
+    monkeypatch.setattr(trace_entries, "LOCK_WAIT", 0.3)
     entry = tmp_path / "kernel.kernel"
     t0 = time.perf_counter()
-    with _traced._entry_lock(entry):
+    with trace_entries.entry_lock(entry):
         free = time.perf_counter() - t0
         t0 = time.perf_counter()
-        with _traced._entry_lock(entry):  # a second open file description: a second holder
+        with trace_entries.entry_lock(entry):  # a second open file description: a second holder
             waited = time.perf_counter() - t0
     assert free < 2.0 and 0.3 <= waited < 10.0  # generous bounds: a loaded CI machine
     assert (tmp_path / "kernel.lock").exists()
@@ -243,20 +244,20 @@ def test_an_entry_holds_no_pickle_and_names_only_loaded_namedtuples(store) -> No
     stored_jit(_cubic, "cubic")(params, x)
     (entry,) = store.glob("cubic-*.kernel")
     data = entry.read_bytes()
-    assert data.startswith(_traced._MAGIC)
+    assert data.startswith(trace_entries.MAGIC)
     assert b"\x80\x04" not in data[:16]  # not a pickle stream
     size = int.from_bytes(data[8:16], "big")
     described = json.loads(data[16 : 16 + size])
     assert described == {"namedtuple": f"{__name__}:Pair", "of": ["*", "*"]}
     tree = jax.tree_util.tree_structure(Pair(0.0, 0.0))
-    assert _traced.tree_of_description(described) == tree
+    assert trace_entries.tree_of_description(described) == tree
     nested = {"a": (1.0, [2.0, None]), "b": Pair(3.0, 4.0)}
     treedef = jax.tree_util.tree_structure(nested)
-    assert _traced.tree_of_description(_traced.describe_tree(treedef)) == treedef
+    assert trace_entries.tree_of_description(trace_entries.describe_tree(treedef)) == treedef
     # a class that no imported module defines (e.g. a planted entry) is never resolved
     text = json.dumps({"namedtuple": "os:system", "of": ["*"]}).encode()
     entry.write_bytes(data[:8] + len(text).to_bytes(8, "big") + text + data[16 + size :])
-    assert _traced._read(entry) is None
+    assert trace_entries.read_entry(entry) is None
     # and the kernel is then exported again, giving the same numbers
     again = stored_jit(_cubic, "cubic")(params, x)
     np.testing.assert_allclose(again.value, 3.0 ** (1 / 3), rtol=1e-15)

@@ -34,9 +34,7 @@ The first-instability (limit-point) force and displacement:
 
 from __future__ import annotations
 
-import enum
 import functools
-from dataclasses import dataclass, field
 from typing import Any
 
 import numpy as np
@@ -44,6 +42,14 @@ import numpy as np
 from biplan._compile.setup import jax, jnp
 from biplan._compile.traced import traced
 from biplan._errors import ConfigError
+from biplan.analysis.sensitivity.observables import (
+    ROWS,
+    SIMPLE_GAP,
+    Mode,
+    Observable,
+    Sensitivity,
+    observable,
+)
 from biplan.analysis.sensitivity.parameters import (
     AngleParameter,
     Maps,
@@ -76,134 +82,9 @@ __all__ = [
 Array = Any
 
 
-class Observable(enum.Enum):
-    """An observable of an equilibrium (or of the first limit point)."""
-
-    U_Z = "u_z"
-    U_R = "u_r"
-    THETA = "theta"
-    FORCE = "force"
-    ENERGY = "energy"
-    DISPLACEMENT = "displacement"
-    MIN_EIGENVALUE = "min_eigenvalue"
-    LIMIT_FORCE = "limit_force"
-    LIMIT_DISPLACEMENT = "limit_displacement"
-
-    @property
-    def unit(self) -> str:
-        """Unit of the observable."""
-        return _UNITS[self.value]
-
-
-_UNITS = {
-    "u_z": "mm",
-    "u_r": "mm",
-    "theta": "rad",
-    "force": "N",
-    "energy": "N·mm",
-    "displacement": "mm",
-    "min_eigenvalue": "H_r",
-    "limit_force": "N",
-    "limit_displacement": "mm",
-}
-#: Rows of the kernel's observable vector.
-_ROWS = (
-    Observable.U_Z,
-    Observable.U_R,
-    Observable.THETA,
-    Observable.FORCE,
-    Observable.ENERGY,
-    Observable.DISPLACEMENT,
-    Observable.MIN_EIGENVALUE,
-)
-
-
-#: λ_min counts as repeated (not differentiable) when the next eigenvalue is within this,
-#: relative to max(|λ_min|, 1).
-SIMPLE_GAP = 1e-8
-
-
-class Mode(enum.Enum):
-    """Mode of the implicit derivative's linear solves (as forward/reverse-mode AD)."""
-
-    AUTO = "auto"  # adjoint when fewer observables than parameters
-    ADJOINT = "adjoint"  # one solve with Jᵀ per observable
-    DIRECT = "direct"  # one solve with J per parameter
-
-
-@dataclass(frozen=True)
-class Sensitivity:
-    """Derivatives of observables with respect to design parameters at one state.
-
-    Attributes
-    ----------
-    observables : tuple of Observable
-    parameters : tuple of Parameter
-    values : ndarray
-        Observable values y (n_obs,) [their units].
-    derivatives : ndarray
-        dy/dp (n_obs, n_par) [observable unit / parameter unit].
-    """
-
-    observables: tuple[Observable, ...]
-    parameters: tuple[Parameter, ...]
-    values: np.ndarray
-    derivatives: np.ndarray
-    state: Solution | None = field(default=None, repr=False, compare=False)
-
-    @property
-    def elasticities(self) -> np.ndarray:
-        """(p / y) dy/dp (n_obs, n_par), dimensionless; NaN where y = 0."""
-        p = np.asarray([par.value for par in self.parameters])
-        with np.errstate(divide="ignore", invalid="ignore"):
-            out = self.derivatives * p[None, :] / self.values[:, None]
-        return np.where(self.values[:, None] == 0.0, np.nan, out)
-
-    def derivative(self, observable: Observable | str, parameter: str) -> float:
-        """dy/dp of one observable and one parameter (by name)."""
-        obs = Observable(observable)
-        names = [p.name for p in self.parameters]
-        if obs not in self.observables:
-            valid = ", ".join(o.value for o in self.observables)
-            raise ConfigError("observable", obs.value, f"one of {valid}")
-        if parameter not in names:
-            raise ConfigError("parameter", parameter, f"one of {', '.join(names)}")
-        return float(self.derivatives[self.observables.index(obs), names.index(parameter)])
-
-    def to_dataframe(self) -> Any:
-        """One row per (observable, parameter): ``observable, parameter, value, unit,
-        elasticity, observable_value, parameter_value`` (``value`` = dy/dp in ``unit``)."""
-        import pandas as pd
-
-        el = self.elasticities
-        rows = [
-            {
-                "observable": obs.value,
-                "parameter": par.name,
-                "value": float(self.derivatives[i, j]),
-                "unit": derivative_unit(obs.unit, par.unit),
-                "elasticity": float(el[i, j]),
-                "observable_value": float(self.values[i]),
-                "parameter_value": par.value,
-            }
-            for i, obs in enumerate(self.observables)
-            for j, par in enumerate(self.parameters)
-        ]
-        return pd.DataFrame(rows)
-
-
-def derivative_unit(numerator: str, denominator: str) -> str:
-    """Unit of d(numerator)/d(denominator), e.g. ``mm/(N/mm²)``; ``1`` divides out."""
-    if denominator == "1":
-        return numerator
-    if any(c in denominator for c in "/·"):
-        denominator = f"({denominator})"
-    return f"{numerator}/{denominator}"
-
-
 # --- the kernels -------------------------------------------------------------------------------
-#: Rows of the first-order kernel (every row of :data:`_ROWS` but λ_min).
-_FIRST_ORDER = _ROWS[:-1]
+#: Rows of the first-order kernel (every row of :data:`ROWS` but λ_min).
+_FIRST_ORDER = ROWS[:-1]
 
 
 def _observables(layout: TubeLayout, p: Any, z: Array, load: Any) -> Array:
@@ -309,7 +190,7 @@ def total_derivatives(
     parameters: ParameterSet,
     weights: tuple[np.ndarray, np.ndarray] | None = None,
     mode: Mode = Mode.AUTO,
-    rows: tuple[Observable, ...] = _ROWS,
+    rows: tuple[Observable, ...] = ROWS,
 ) -> tuple[np.ndarray, np.ndarray]:
     """(y, dy/dv): the kernel's observables ``rows`` and their total derivatives (n, n_par)
     with respect to every parameter of ``parameters``, at a converged ``state``.
@@ -328,7 +209,7 @@ def total_derivatives(
         e, e_z, e_v = _eigen.compiled(*key)(parameters.maps, v, z, f64(x), f64(eta))
         y = np.append(y, float(e))
         y_z, y_v = np.vstack([y_z, np.asarray(e_z)]), np.vstack([y_v, np.asarray(e_v)])
-    pick = [_ROWS.index(o) for o in rows]
+    pick = [ROWS.index(o) for o in rows]
     y, y_z, y_v = y[pick], y_z[pick], y_v[pick]
     adjoint = mode is Mode.ADJOINT or (mode is Mode.AUTO and len(pick) < r_v.shape[1])
     try:
@@ -414,22 +295,11 @@ def request(
     check_state(model, state)
     disp = state.load.is_displacement_controlled
     if observables is None:
-        observables = tuple(o for o in _ROWS if disp or o is not Observable.FORCE)
+        observables = tuple(o for o in ROWS if disp or o is not Observable.FORCE)
     obs = tuple(observable(o) for o in observables)
     pset = design_parameters(model, state.load, angle=AngleParameter(angle), per_fold=per_fold)
     names = pset.names if parameters is None else tuple(parameters)
     return obs, pset, [pset.index(name) for name in names]
-
-
-def observable(o: Observable | str) -> Observable:
-    try:
-        found = Observable(o)
-    except ValueError:
-        found = None
-    if found not in _ROWS:
-        valid = ", ".join(r.value for r in _ROWS)
-        raise ConfigError("observable", getattr(o, "value", o), f"one of {valid}")
-    return found  # type: ignore[return-value]
 
 
 def check_state(model: Model, state: Solution) -> None:
