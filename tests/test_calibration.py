@@ -35,11 +35,11 @@ from biplan.calibration.calibrate import (
 from biplan.calibration.files import (
     DataError,
     SpecimenFormat,
-    calibration_toml,
     read_specimen,
     read_specimens,
 )
 from biplan.calibration.fits import CftGeometry, cft_force, fit_linear, fit_trilinear
+from biplan.calibration.law_blocks import calibration_toml
 from biplan.calibration.specimens import Segment, Specimen, band_statistics, segment_problem
 from biplan.calibration.synthetic import Scatter, synthetic_specimens
 from biplan.calibration.validation import compare_to_band

@@ -7,7 +7,7 @@
 * :func:`calibrate_directory` — every ``*.csv`` of a directory read as one specimen, then the
   law of :class:`LawKind` fitted (:mod:`biplan.calibration.calibrate`);
 * :func:`write_law` — the TOML law block with its provenance, intervals and caveats as
-  comments (:func:`~biplan.calibration.files.calibration_toml`);
+  comments (:func:`~biplan.calibration.law_blocks.calibration_toml`);
 * :func:`write_table` — the band and the fit on the common grid as CSV (:data:`TABLE_COLUMNS`:
   displacement [mm], phase, count, median [N], std [N], fitted [N], residual [N]).
 
@@ -28,12 +28,12 @@ from biplan.calibration import calibrate
 from biplan.calibration.calibrate import Calibration, CalibrationOptions
 from biplan.calibration.files import (
     SpecimenFormat,
-    calibration_toml,
     read_calibration_config,
     read_specimens,
     with_overrides,
 )
 from biplan.calibration.fits import CftGeometry
+from biplan.calibration.law_blocks import calibration_toml
 
 __all__ = [
     "TABLE_COLUMNS",
