@@ -24,6 +24,7 @@ import pytest
 from scipy.optimize import minimize
 
 import biplan
+from biplan.calibration.band import band_statistics
 from biplan.calibration.calibrate import (
     Breakpoints,
     CalibrationOptions,
@@ -40,7 +41,7 @@ from biplan.calibration.files import (
 )
 from biplan.calibration.fits import CftGeometry, cft_force, fit_linear, fit_trilinear
 from biplan.calibration.law_blocks import calibration_toml
-from biplan.calibration.specimens import Segment, Specimen, band_statistics, segment_problem
+from biplan.calibration.specimens import Segment, Specimen, segment_problem
 from biplan.calibration.synthetic import Scatter, synthetic_specimens
 from biplan.calibration.validation import compare_to_band
 from biplan.io.config import load_config_text

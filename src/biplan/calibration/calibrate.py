@@ -1,7 +1,7 @@
 """Calibrate fold laws from measured CFT specimens (SI "Experimental Calibration").
 
 Pipeline (:func:`calibrate_trilinear`, :func:`calibrate_linear`): the specimens' median ± 1 SD
-band (:func:`~biplan.calibration.specimens.band_statistics`); a law fitted to the median curve at
+band (:func:`~biplan.calibration.band.band_statistics`); a law fitted to the median curve at
 the fold-field level (:mod:`biplan.calibration.fits`, specimen → field conversion F = H f(w),
 u = n w); percentile bootstrap confidence intervals over specimens.
 
@@ -15,7 +15,7 @@ w2 = median start of phase 2, each divided by n) — then the spinodal line is t
 interpolation between the fitted branches at the two measured instability points, as the paper
 does — or free (:attr:`Breakpoints.FREE`): the curve then carries the spinodal interpolated
 linearly between the two measured instability points (``points_per_phase`` points,
-:meth:`~biplan.calibration.specimens.Band.fit_curve`), which makes the breakpoints identifiable.
+:meth:`~biplan.calibration.band.Band.fit_curve`), which makes the breakpoints identifiable.
 
 Bootstrap
 ---------
@@ -50,8 +50,9 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from biplan._errors import ConfigError, check_integer, check_range
+from biplan.calibration.band import Band, band_statistics
 from biplan.calibration.fits import CftGeometry, LawFit, fit_linear, fit_trilinear
-from biplan.calibration.specimens import Band, Specimen, band_statistics
+from biplan.calibration.specimens import Specimen
 from biplan.laws import LinearLaw, TrilinearLaw
 
 __all__ = [
@@ -136,7 +137,7 @@ class CalibrationOptions:
     seed : int or None
         Seed of the bootstrap generator (≥ 0).
     points_per_phase, min_coverage
-        Passed to :func:`~biplan.calibration.specimens.band_statistics`.
+        Passed to :func:`~biplan.calibration.band.band_statistics`.
     fit_coverage : float
         Fraction in (0, 1] of the specimens that must have data at a median point for it to
         enter the fit (default 1: only where every specimen is measured, so that specimens

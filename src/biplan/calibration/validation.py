@@ -16,7 +16,7 @@ from pathlib import Path
 import numpy as np
 
 from biplan._errors import ConfigError
-from biplan.calibration.specimens import Band
+from biplan.calibration.band import Band
 
 __all__ = ["BandComparison", "compare_to_band", "write_comparison"]
 

@@ -28,8 +28,8 @@ from biplan.plot.response import COLUMN_FIGSIZE, FONT_SIZE, _new_axes, _style
 if TYPE_CHECKING:
     from matplotlib.axes import Axes
 
+    from biplan.calibration.band import Band
     from biplan.calibration.calibrate import Calibration
-    from biplan.calibration.specimens import Band
     from biplan.calibration.validation import BandComparison
 
 __all__ = ["calibration_band", "validation_band", "write_calibration_band"]

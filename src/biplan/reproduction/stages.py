@@ -172,8 +172,8 @@ def _stage_semi(ctx: StageContext) -> None:
 
 
 def _stage_validation(ctx: StageContext) -> None:
+    from biplan.calibration.band import band_statistics
     from biplan.calibration.files import SpecimenFormat, read_specimens
-    from biplan.calibration.specimens import band_statistics
     from biplan.calibration.validation import compare_to_band
 
     path = ctx.semi_path

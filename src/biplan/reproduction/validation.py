@@ -30,10 +30,11 @@ def synthetic_band(path: Any, seed: int = 11) -> Any:
     Returns
     -------
     Band
-        :func:`biplan.calibration.specimens.band_statistics` of the five specimens.
+        :func:`biplan.calibration.band.band_statistics` of the five specimens.
     """
     from biplan.analysis.response.summary import phase_one_end
-    from biplan.calibration.specimens import Segment, Specimen, band_statistics
+    from biplan.calibration.band import band_statistics
+    from biplan.calibration.specimens import Segment, Specimen
     from biplan.calibration.synthetic import sample_segment
 
     ok = np.isfinite(path.force) & path.stable
