@@ -97,7 +97,7 @@ def pieces(n: int) -> dict[str, float]:
     else:
         out["LM"] = float("nan")
     out["LM dense"] = best(lambda: iteration._lm_direction(jac, rhs, 1e-3))
-    settings = iteration.settings_array(
+    settings = iteration.newton_settings(
         method.atol, method.max_steps, method.max_backtracks, method.armijo, method.free_steps
     )
     for name, d in (("Newton", data), ("Newton dense", dense)):

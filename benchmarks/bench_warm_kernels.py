@@ -41,7 +41,7 @@ def best(f: Callable[[], object], n: int) -> float:
 def measure(n: int) -> None:
     """Print the warm timings of an N-module tube."""
     laws = biplan.designs.semi_bistable()
-    settings = iteration.settings_array(1e-9, 60, 30, 1e-4, 0)
+    settings = iteration.newton_settings(1e-9, 60, 30, 1e-4, 0)
     tube = biplan.Tube.uniform(
         radius=2.0,
         pitch=3.6,

@@ -42,7 +42,7 @@ def points(model6):
 
 
 def _settings(newton: Newton) -> np.ndarray:
-    return iteration.settings_array(
+    return iteration.newton_settings(
         newton.atol, newton.max_steps, newton.max_backtracks, newton.armijo, newton.free_steps
     )
 

@@ -148,7 +148,7 @@ def test_newton_reaches_the_same_equilibrium_with_and_without_the_structure():
     dense = system.data._replace(
         solve_order=np.zeros(0, dtype=np.int64), solve_band=np.zeros(0, dtype=np.int64)
     )
-    settings = iteration.settings_array(1e-9, 60, 8, 1e-4, 0)
+    settings = iteration.newton_settings(1e-9, 60, 8, 1e-4, 0)
     outs = [
         iteration.newton(
             d, system.load, ref.z, settings, iteration.NO_BORDER, 0.0, iteration.NO_STEP

@@ -19,7 +19,7 @@ from biplan.analysis.stability import classify
 from biplan.analysis.states import deflation
 from biplan.analysis.states.deflation import Deflation, deflate
 from biplan.solvers import deflated_loop
-from biplan.solvers.iteration import settings_array
+from biplan.solvers.iteration import newton_settings
 from biplan.solvers.status import Status
 from jax_oracle import deflation as jax_deflation
 from jax_oracle.core import iterate
@@ -164,7 +164,7 @@ def test_deflated_newton_takes_the_jax_iterates(model1, known, starts):
     and their rounding grows with every step)."""
     d = model1.system().data
     roots = known[:, :4]
-    settings = settings_array(CFG.tolerance, CFG.max_steps, deflation.BACKTRACKS, 1e-4, 0)
+    settings = newton_settings(CFG.tolerance, CFG.max_steps, deflation.BACKTRACKS, 1e-4, 0)
     core = _core_newton(d, roots, len(starts[0]), CFG)
     padded, mask = jax_deflation.padded(list(roots))
     kernel = jax_deflation.deflated_loop.compiled(model1.layout)

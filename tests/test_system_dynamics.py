@@ -208,7 +208,7 @@ def test_massless_step_rows_leave_the_newton_iterates_unchanged(model6, referenc
     takes the iterates, steps and status of the static KKT system."""
     system = model6.system(Load.of_displacement(5.0))
     n_q = model6.n_coordinates
-    settings = iteration.settings_array(1e-10, 60, 12, 1e-4, 0, levenberg_marquardt=False)
+    settings = iteration.newton_settings(1e-10, 60, 12, 1e-4, 0, levenberg_marquardt=False)
     zero = np.zeros(n_q)
     data = inertia.step_data(zero, zero, zero, 1.0, 1.0, 0.0)
     args = (system.data, system.load, reference6.z, settings, iteration.NO_BORDER, 0.0)

@@ -46,7 +46,7 @@ def edge(model4):
     q[-1] = model4.tube.circular_laws[-1].wells()[1]
     za, zb = _stable(model4, np.zeros(model4.n_coordinates)), _stable(model4, q)
     band0 = _straight_band(model4, za, zb, 12)
-    settings = NudgedElasticBand(n_images=12).settings()
+    settings = NudgedElasticBand(n_images=12).loop_settings()
     d = model4.system().data
     out = band_loop.fire_band(d, band0, settings)
     ref = _nebkernel.fire_band.compiled(model4.layout)(
@@ -154,7 +154,7 @@ def test_constraint_rows_are_their_derivative(model4, rng):
 
 def test_band_forces_equal_the_jax_forces(model4, edge):
     d, band0, settings, out, _ = edge
-    spring, contact_tol = settings[0], settings[7]
+    spring, contact_tol = settings.spring, settings.contact_tolerance
     forces = jax.jit(
         lambda q, climb: _nebkernel.band_forces(
             model4.layout, model4.params, q, spring, contact_tol, climb
@@ -186,7 +186,7 @@ def test_relaxed_band_takes_the_jax_iterates(edge):
     assert np.max(np.abs(q - np.asarray(ref.q))) < 1e-5
     assert np.max(np.abs(e - np.asarray(ref.energy))) < 1e-4 * max(1.0, float(np.max(e)))
     # both stopped on the force tolerance, at the same step
-    assert fmax < settings[1] and float(ref.max_force) < settings[1]
+    assert fmax < settings.tolerance and float(ref.max_force) < settings.tolerance
     assert fmax == pytest.approx(float(ref.max_force), rel=1e-2)
     assert violation < 1e-12 and float(ref.constraint_residual) < 1e-12
 
@@ -194,14 +194,16 @@ def test_relaxed_band_takes_the_jax_iterates(edge):
 def test_relaxed_band_is_converged_on_the_manifold(model4, edge):
     d, _, settings, out, _ = edge
     q, e, _, lam_c, fmax, climbing, _, violation = out
-    assert fmax < settings[1]
+    assert fmax < settings.tolerance
     # the forces at the band it returns: below the tolerance but for the last FIRE step
-    f, e_again, *_ = band_loop.band_forces(d, q, settings[0], settings[7], True)
-    assert np.max(np.abs(f)) < 10 * settings[1]
+    f, e_again, *_ = band_loop.band_forces(d, q, settings.spring, settings.contact_tolerance, True)
+    assert np.max(np.abs(f)) < 10 * settings.tolerance
     np.testing.assert_array_equal(e, e_again)
     assert climbing == int(np.argmax(e[1:-1])) + 1
     for i in range(len(q)):
-        energy, proj, _, lam_c_i, rows, _ = band_loop.image_gradient(d, q[i], settings[7])
+        energy, proj, _, lam_c_i, rows, _ = band_loop.image_gradient(
+            d, q[i], settings.contact_tolerance
+        )
         assert energy == pytest.approx(model4.energy(q[i]), rel=1e-12, abs=1e-14)
         # P∇Π lies in the null space of the active rows; the active contacts push
         assert np.max(np.abs(rows @ proj)) < 1e-9 * max(1.0, float(np.max(np.abs(proj))))
@@ -222,7 +224,7 @@ def test_barriers_equal_the_refined_jax_band(model1, n_images):
     mep = minimum_energy_path(model1, za, zb, neb)
     band0 = _straight_band(model1, za, zb, n_images)
     ref = _nebkernel.fire_band.compiled(model1.layout)(
-        model1.params, jnp.asarray(band0), jnp.asarray(neb.settings())
+        model1.params, jnp.asarray(band0), jnp.asarray(neb.loop_settings())
     )
     top = int(ref.climbing)
     assert top == mep.saddle_index

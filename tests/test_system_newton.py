@@ -28,7 +28,7 @@ def test_compiled_newton_takes_the_jax_iterates(model6, reference6, case):
     load, options = CASES[case]
     method = biplan.Newton(**options)
     system = model6.system(load)
-    s = iteration.settings_array(
+    s = iteration.newton_settings(
         method.atol, method.max_steps, method.max_backtracks, method.armijo, method.free_steps
     )
     z, _, _, jac, steps, status = iteration.newton(

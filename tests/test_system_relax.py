@@ -137,7 +137,7 @@ def relaxed():
     target, mask = seeding.seed_targets(model, folds, bits)
     settings = Enumeration()
     newton = settings.newton
-    method = iteration.settings_array(
+    method = iteration.newton_settings(
         newton.atol, newton.max_steps, newton.max_backtracks, newton.armijo, newton.free_steps
     )
     args = (float(settings.penalty_stiffness), int(settings.max_iterations), method)

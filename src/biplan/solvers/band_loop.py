@@ -24,7 +24,7 @@ The algorithm, its constants and its iterates are those of the JAX kernel it rep
 
 from __future__ import annotations
 
-from typing import cast
+from typing import NamedTuple, cast
 
 import numpy as np
 from numba import njit
@@ -39,6 +39,7 @@ __all__ = [
     "FIRE_FALPHA",
     "FIRE_INC",
     "FIRE_N_MIN",
+    "BandSettings",
     "band_forces",
     "fire_band",
     "image_gradient",
@@ -181,22 +182,54 @@ def band_forces(
     return f, arrays[0], arrays[2], arrays[3], top
 
 
-@njit(cache=True)
-def fire_band(d: SystemData, q0: np.ndarray, settings: np.ndarray) -> tuple:  # type: ignore[type-arg]
-    """Relax a band q0 (M, n_q) whose end images are stationary states (module docstring).
+class BandSettings(NamedTuple):
+    """The settings of :func:`fire_band`, by name
+    (:meth:`biplan.analysis.states.barriers.NudgedElasticBand.loop_settings`).
 
-    ``settings`` = [spring, tolerance, max_iterations, climbing (0/1), dt, dt_max, max_step,
-    contact_tol, climb_start]: spring [N/mm], tolerance [N], FIRE time steps, max step
-    [mm or rad], contact tolerance [mm], force below which the climbing image switches on [N]
-    (:meth:`biplan.analysis.states.barriers.NudgedElasticBand.settings`).
+    Attributes
+    ----------
+    spring : float
+        Spring constant between images [N/mm].
+    tolerance : float
+        Largest force on an interior image at convergence [N].
+    max_iterations : int
+        FIRE time steps.
+    climbing : bool
+        Switch the climbing image on.
+    time_step, max_time_step : float
+        FIRE's initial and largest time step.
+    max_step : float
+        Largest move of an image coordinate in one step [mm or rad].
+    contact_tolerance : float
+        Gap [mm] below which a contact row is active.
+    climb_start : float
+        Force [N] below which the climbing image switches on.
+    """
+
+    spring: float
+    tolerance: float
+    max_iterations: int
+    climbing: bool
+    time_step: float
+    max_time_step: float
+    max_step: float
+    contact_tolerance: float
+    climb_start: float
+
+
+@njit(cache=True)
+def fire_band(d: SystemData, q0: np.ndarray, settings: BandSettings) -> tuple:  # type: ignore[type-arg]
+    """Relax a band q0 (M, n_q) whose end images are stationary states (module docstring);
+    ``settings``: :class:`BandSettings`.
 
     Returns (q (M, n_q), Π (M,) [N·mm], λ (M, n_g) [N], λ_∂ (M, n_c) [N], max |F| over the
     interior images [N], index of the climbing image (−1 if never switched on), FIRE
     iterations, max |g| and max(−w_∂, 0) over the band [mm]).
     """
-    spring, tol, max_it, use_climb = settings[0], settings[1], int(settings[2]), settings[3] > 0.5
-    dt, dt_max, max_step = settings[4], settings[5], settings[6]
-    contact_tol, climb_start = settings[7], settings[8]
+    spring, tol = settings.spring, settings.tolerance
+    max_it, use_climb = settings.max_iterations, settings.climbing
+    dt, dt_max, max_step = settings.time_step, settings.max_time_step, settings.max_step
+    contact_tol, climb_start = settings.contact_tolerance, settings.climb_start
     m, n_q = q0.shape
     q = q0.copy()
     for i in range(1, m - 1):

@@ -28,7 +28,7 @@ from numba import njit
 from biplan.model.system import assemble
 from biplan.model.system.tables import SystemData
 from biplan.solvers import lanes
-from biplan.solvers.iteration import newton
+from biplan.solvers.iteration import NewtonSettings, newton
 from biplan.solvers.observation import observe_state
 from biplan.solvers.status import Status
 
@@ -42,7 +42,7 @@ def _solve_rows(
     d: SystemData,
     z0: np.ndarray,
     loads: np.ndarray,
-    settings: np.ndarray,
+    settings: NewtonSettings,
     z: np.ndarray,
     status: np.ndarray,
     steps: np.ndarray,
@@ -58,7 +58,7 @@ def _solve_rows(
 
 
 def solve_tasks(
-    d: SystemData, z0: np.ndarray, loads: np.ndarray, settings: np.ndarray
+    d: SystemData, z0: np.ndarray, loads: np.ndarray, settings: NewtonSettings
 ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """Solve r(z) = 0 of one tube from many starts and loads by
     :func:`biplan.solvers.iteration.newton`, in parallel blocks of tasks
@@ -73,8 +73,8 @@ def solve_tasks(
     loads : ndarray (T, 3)
         (F [N], U [mm], d) of each task: end force, prescribed load-point displacement and
         1.0 under displacement control.
-    settings : ndarray (6,)
-        :func:`biplan.solvers.iteration.settings_array`.
+    settings : NewtonSettings
+        The Newton's settings (:func:`biplan.solvers.iteration.newton_settings`).
 
     Returns
     -------
@@ -156,7 +156,7 @@ def ramp(
     d: SystemData,
     z0: np.ndarray,
     forces: np.ndarray,
-    settings: np.ndarray,
+    settings: NewtonSettings,
     chord_iterations: int,
     weak_contacts: bool,
 ) -> tuple:  # type: ignore[type-arg]
@@ -187,7 +187,7 @@ def ramp(
     jac = assemble.evaluate(d, z, load, True)[1]
     for k in range(n_steps):
         load = np.array([forces[k], 0.0, 0.0])
-        start = chord(d, z, jac, load, settings[0], chord_iterations)
+        start = chord(d, z, jac, load, settings.atol, chord_iterations)
         out = newton(d, load, start, settings, np.zeros(0), 0.0, np.zeros(0))
         if out[5] != _CONVERGED or not np.all(np.isfinite(out[0])):
             first_bad[k] = out[5]

@@ -74,20 +74,19 @@ class _Stepper:
 
     natural = True
 
-    def settings(self, load_weight: float) -> np.ndarray:
-        return np.array(
-            [
-                1.0 if self.natural else 0.0,
-                self.initial_step,
-                self.min_step,
-                self.max_step,
-                self.grow,
-                self.max_steps,
-                self.atol,
-                self.max_iterations,
-                load_weight,
-                1.0 if self.stop_at_limit_point else 0.0,
-            ]
+    def loop_settings(self, load_weight: float) -> path_loop.PathSettings:
+        """These settings as the compiled path loop takes them (every field of its type)."""
+        return path_loop.PathSettings(
+            bool(self.natural),
+            float(self.initial_step),
+            float(self.min_step),
+            float(self.max_step),
+            float(self.grow),
+            int(self.max_steps),
+            float(self.atol),
+            int(self.max_iterations),
+            float(load_weight),
+            bool(self.stop_at_limit_point),
         )
 
 
@@ -228,7 +227,7 @@ def trace_path(
         float(load_parameter0),
         np.asarray(ctl, dtype=float),
         float(control.stop),
-        method.settings(weight),
+        method.loop_settings(weight),
     )
     z, load_parameter, tang = z[:count], load_parameter[:count], tang[:count]
     steps, its = steps[:count], its[:count]

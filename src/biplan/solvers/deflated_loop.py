@@ -24,6 +24,7 @@ from biplan.solvers.iteration import (
     ESCAPE,
     NO_BORDER,
     NO_STEP,
+    NewtonSettings,
     deflate,
     log_deflation,
     solve,
@@ -56,12 +57,12 @@ def deflated_newton(
     roots: np.ndarray,
     power: float,
     shift: float,
-    settings: np.ndarray,
+    settings: NewtonSettings,
 ) -> tuple:  # type: ignore[type-arg]
     """Newton on the deflated system from z0 (module docstring).
 
-    ``settings``: :func:`biplan.solvers.iteration.settings_array` (tolerance on the undeflated
-    residual [N, mm], steps, halvings, Armijo constant, watchdog, Levenberg–Marquardt).
+    ``settings``: :class:`~biplan.solvers.iteration.NewtonSettings` (its tolerance on the
+    undeflated residual [N, mm]).
     Returns (z, status, ‖r‖∞ of the undeflated residual at z, accepted steps).
     """
     data = np.concatenate((np.array([power, shift]), roots.ravel()))

@@ -261,15 +261,17 @@ def integrate(
     control = Control(load.kind, float(load.values[-1]))
     ctl = control.coefficients(model)
     times, values = load.padded()
-    settings = np.array(
-        [
-            *scheme.coefficients(),
-            scheme.rayleigh,
-            model.tube.surface_density,
-            scheme.atol,
-            scheme.max_iterations,
-            scheme.energy_tolerance,
-        ]
+    am, af, gamma, beta = (float(c) for c in scheme.coefficients())
+    settings = step_loop.StepSettings(
+        am,
+        af,
+        gamma,
+        beta,
+        float(scheme.rayleigh),
+        float(model.tube.surface_density),
+        float(scheme.atol),
+        int(scheme.max_iterations),
+        float(scheme.energy_tolerance),
     )
     load0 = _load_at(ctl, load.value(0.0))
     ts, zs, vs, kins, its, diss, rejected, status = _run_system(
@@ -335,7 +337,7 @@ def _run_system(
     ctl: np.ndarray,
     times: np.ndarray,
     values: np.ndarray,
-    settings: np.ndarray,
+    settings: step_loop.StepSettings,
     scheme: GeneralizedAlpha,
     t_end: float,
 ) -> _Run:

@@ -5,8 +5,9 @@ Armijo backtracking on the merit ½‖R‖², a Levenberg–Marquardt fallback w
 once the halvings are spent (or when the Newton system is singular; with the fallback off such
 a search ends the solve, the plain damped Newton of the path corrector), and the watchdog of
 free steps (Chamberlain et al. 1982). The start enters as the first trial point (merit +∞,
-accepted when finite); the Jacobian is evaluated at accepted points only. Settings arrive as
-one array built from :class:`~biplan.solvers.Newton` (:func:`settings_array`).
+accepted when finite); the Jacobian is evaluated at accepted points only. Its settings are a
+:class:`NewtonSettings` (named fields; :func:`newton_settings`, or
+:meth:`biplan.solvers.Newton.loop_settings`).
 
 The system R(x) = 0 is the KKT system r(z) = 0 at a load (plus, in a time step, the inertia
 rows of :func:`biplan.model.system.inertia.add_inertia`), or, with a border row, the bordered
@@ -26,7 +27,7 @@ solve converges when the undeflated residual is below the tolerance.
 from __future__ import annotations
 
 import math
-from typing import Any
+from typing import Any, NamedTuple
 
 import numpy as np
 from numba import njit
@@ -43,11 +44,12 @@ __all__ = [
     "NO_BORDER",
     "NO_DEFLATION",
     "NO_STEP",
+    "NewtonSettings",
     "deflate",
     "deflation_data",
     "log_deflation",
     "newton",
-    "settings_array",
+    "newton_settings",
     "solve",
     "solve_system",
 ]
@@ -71,17 +73,51 @@ ESCAPE = 1e3
 _TINY = 1e-300
 
 
-def settings_array(
+class NewtonSettings(NamedTuple):
+    """The settings of the compiled Newton (:func:`solve`), by name.
+
+    Attributes
+    ----------
+    atol : float
+        Convergence when ‖R‖∞ < atol.
+    max_steps : int
+        Newton steps.
+    max_backtracks : int
+        Step halvings of the Armijo line search before Levenberg–Marquardt (or failure).
+    armijo : float
+        Sufficient-decrease constant.
+    free_steps : int
+        Watchdog steps taken in full whenever finite.
+    levenberg_marquardt : bool
+        Fall back to Levenberg–Marquardt steps (off: the plain damped Newton, which fails where
+        the halvings are spent).
+    """
+
+    atol: float
+    max_steps: int
+    max_backtracks: int
+    armijo: float
+    free_steps: int
+    levenberg_marquardt: bool
+
+
+def newton_settings(
     atol: float,
     max_steps: int,
     max_backtracks: int,
     armijo: float,
     free_steps: int,
     levenberg_marquardt: bool = True,
-) -> np.ndarray:
-    """The settings of :func:`newton` as the array it takes."""
-    lm = 1.0 if levenberg_marquardt else 0.0
-    return np.array([atol, max_steps, max_backtracks, armijo, free_steps, lm], dtype=float)
+) -> NewtonSettings:
+    """:class:`NewtonSettings` with every field of its type (one compiled signature)."""
+    return NewtonSettings(
+        float(atol),
+        int(max_steps),
+        int(max_backtracks),
+        float(armijo),
+        int(free_steps),
+        bool(levenberg_marquardt),
+    )
 
 
 @njit(cache=True)
@@ -192,7 +228,7 @@ def newton(
     d: SystemData,
     load: np.ndarray,
     z0: np.ndarray,
-    settings: np.ndarray,
+    settings: NewtonSettings,
     border: np.ndarray,
     rho: float,
     step: np.ndarray,
@@ -213,7 +249,7 @@ def newton(
     return solve(d, load, z0, settings, border, rho, step, NO_DEFLATION)
 
 
-def solve_system(system: Any, z0: np.ndarray, settings: np.ndarray) -> tuple:  # type: ignore[type-arg]
+def solve_system(system: Any, z0: np.ndarray, settings: NewtonSettings) -> tuple:  # type: ignore[type-arg]
     """:func:`newton` on a :class:`~biplan.model.system.System` (its data and load) from z0,
     called from Python (through :func:`solve`, which is compiled on its own)."""
     return solve(  # type: ignore[no-any-return]
@@ -274,7 +310,7 @@ def solve(
     d: SystemData,
     load: np.ndarray,
     z0: np.ndarray,
-    settings: np.ndarray,
+    settings: NewtonSettings,
     border: np.ndarray,
     rho: float,
     step: np.ndarray,
@@ -283,9 +319,8 @@ def solve(
     """:func:`newton`, on the deflated system M(q) R(z) where ``deflation`` is not empty
     (:data:`NO_DEFLATION`; :func:`deflation_data`): converged when the *undeflated* residual
     is below the tolerance, ‖M R‖∞ < atol · M."""
-    atol, max_steps, max_bt, c_arm = settings[0], int(settings[1]), int(settings[2]), settings[3]
-    free = int(settings[4])
-    with_lm = settings[5] > 0.5
+    atol, max_steps, max_bt = settings.atol, settings.max_steps, settings.max_backtracks
+    c_arm, free, with_lm = settings.armijo, settings.free_steps, settings.levenberg_marquardt
     deflated = deflation.shape[0] > 0
     # the bordered banded solve of the layout (solvers.bordered); dense LU for the deflated
     # system (M R ∇ηᵀ fills the q columns) and a time step's inertia rows

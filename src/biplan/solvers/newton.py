@@ -19,7 +19,7 @@ from biplan.model.assembly import Load, Model
 from biplan.model.lagrangian import StateData
 from biplan.model.system import System
 from biplan.solvers import iteration
-from biplan.solvers.iteration import settings_array
+from biplan.solvers.iteration import NewtonSettings, newton_settings
 from biplan.solvers.status import Status
 
 __all__ = ["Newton", "Solution", "Status", "relaxed_reference", "solve_equilibrium"]
@@ -79,10 +79,10 @@ class Newton:
         if not isinstance(self.contact_restart, bool):
             raise ConfigError("Newton.contact_restart", self.contact_restart, "True or False")
 
-    def loop_settings(self) -> np.ndarray:
+    def loop_settings(self) -> NewtonSettings:
         """These settings as the compiled Newton takes them
-        (:func:`biplan.solvers.iteration.settings_array`; ``contact_restart`` is the driver's)."""
-        return settings_array(
+        (:func:`biplan.solvers.iteration.newton_settings`; ``contact_restart`` is the driver's)."""
+        return newton_settings(
             self.atol, self.max_steps, self.max_backtracks, self.armijo, self.free_steps
         )
 

@@ -18,11 +18,13 @@ whole failed cycle.
 
 from __future__ import annotations
 
+from typing import NamedTuple
+
 import numpy as np
 from numba import njit
 
 from biplan.model.system.tables import SystemData
-from biplan.solvers.iteration import NO_STEP, newton
+from biplan.solvers.iteration import NO_STEP, NewtonSettings, newton
 from biplan.solvers.status import Status
 
 __all__ = [
@@ -31,6 +33,7 @@ __all__ = [
     "MAX_STEPS",
     "RETURNED",
     "STALLED",
+    "PathSettings",
     "correct_rows",
     "corrector",
     "path_loop",
@@ -43,6 +46,41 @@ RUNNING, COMPLETED, MAX_STEPS, STALLED = -1, 0, 1, 2
 RETURNED, LIMIT_POINT = 5, 6
 #: Step halvings of the corrector's line search (smallest step fraction 2⁻¹²).
 DAMPED_BACKTRACKS = 12
+
+
+class PathSettings(NamedTuple):
+    """The settings of :func:`path_loop`, by name.
+
+    Attributes
+    ----------
+    natural : bool
+        Step Λ by ds (load stepping); False: pseudo-arclength steps ds.
+    initial_step, min_step, max_step : float
+        Step lengths ds.
+    grow : float
+        Step growth after an easy step, > 1.
+    max_steps : int
+        Steps of the path.
+    atol : float
+        Corrector tolerance ‖r‖∞.
+    max_iterations : int
+        Corrector Newton steps.
+    load_weight : float
+        w_Λ of Λ in the arclength norm.
+    stop_at_limit : bool
+        End at the first state past a limit point of Λ (``LIMIT_POINT``).
+    """
+
+    natural: bool
+    initial_step: float
+    min_step: float
+    max_step: float
+    grow: float
+    max_steps: int
+    atol: float
+    max_iterations: int
+    load_weight: float
+    stop_at_limit: bool
 
 
 @njit(cache=True, inline="always")
@@ -65,7 +103,9 @@ def corrector(
     x0 = np.empty(n + 1)
     x0[:n] = z0
     x0[n] = load_parameter0
-    settings = np.array([atol, max_iterations, DAMPED_BACKTRACKS, 1e-4, 0.0, 0.0])
+    settings = NewtonSettings(
+        float(atol), int(max_iterations), int(DAMPED_BACKTRACKS), 1e-4, 0, False
+    )
     x, _, _, jac, steps, status = newton(d, ctl, x0, settings, row, rho, NO_STEP)
     return (
         x[:n],
@@ -129,24 +169,25 @@ def path_loop(
     load_parameter0: float,
     ctl: np.ndarray,
     stop: float,
-    settings: np.ndarray,
+    settings: PathSettings,
 ) -> tuple:  # type: ignore[type-arg]
     """Adaptive predictor–corrector path from (z0, Λ0) toward Λ = ``stop``.
 
-    ``settings = [natural, ds0, ds_min, ds_max, grow, max_steps, atol, max_iterations, w_Λ,
-    stop_at_limit]``; natural = 1 steps Λ by ds (load stepping), 0 uses pseudo-arclength steps
-    ds; stop_at_limit = 1 ends the loop (``LIMIT_POINT``) at the first state past a limit point
-    of Λ (the Λ-component of the tangent turned against the direction of ``stop``). A
+    ``settings``: :class:`PathSettings`; ``natural`` steps Λ by ds (load stepping), else
+    pseudo-arclength steps ds; ``stop_at_limit`` ends the loop (``LIMIT_POINT``) at the first
+    state past a limit point of Λ (the Λ-component of the tangent turned against the direction
+    of ``stop``). A
     corrected state whose Λ lies beyond the start value on the far side from ``stop`` ends
     the loop with ``RETURNED`` before it is recorded.
 
     Returns (z (B, n), Λ (B,), tangents (B, n + 1), step lengths (B,), corrector iterations
     (B,), count, cut-backs, status), the first ``count`` rows filled.
     """
-    natural = settings[0] > 0.5
-    ds, ds_min, ds_max, grow = settings[1], settings[2], settings[3], settings[4]
-    max_steps, atol, max_it, w_lam = int(settings[5]), settings[6], int(settings[7]), settings[8]
-    stop_at_limit = settings[9] > 0.5
+    natural = settings.natural
+    ds, ds_min, ds_max = settings.initial_step, settings.min_step, settings.max_step
+    grow, max_steps, atol = settings.grow, settings.max_steps, settings.atol
+    max_it, w_lam = settings.max_iterations, settings.load_weight
+    stop_at_limit = settings.stop_at_limit
     n = z0.shape[0]
     size = max_steps + 1
     weights = np.zeros(n)
@@ -166,7 +207,7 @@ def path_loop(
     fails, started = 0, False
     while status == RUNNING:
         first = not started
-        tz, tl = t[:n], t[n]
+        tz, tl = t[:n], float(t[n])
         tl_safe = tl if abs(tl) > 1e-12 else 1e-12
         mode = 2 if natural else fails % 3
         if first:  # the first pass stays at the start: it yields the start's tangent

@@ -45,7 +45,7 @@ from biplan.model.system.reduced import (
     penalized_value,
 )
 from biplan.model.system.tables import SystemData
-from biplan.solvers.iteration import NO_BORDER, NO_STEP, _solve, newton
+from biplan.solvers.iteration import NO_BORDER, NO_STEP, NewtonSettings, _solve, newton
 
 __all__ = ["relax_rows", "relax_seed"]
 
@@ -186,10 +186,10 @@ def relax_seed(
     mask: np.ndarray,
     stiffness: float,
     max_iterations: int,
-    settings: np.ndarray,
+    settings: NewtonSettings,
 ) -> tuple:  # type: ignore[type-arg]
     """(z, status, max |r|, descent iterations) of one seed (module docstring); ``settings``:
-    the Newton settings of the polish (:func:`biplan.solvers.iteration.settings_array`)."""
+    the Newton settings of the polish (:class:`~biplan.solvers.iteration.NewtonSettings`)."""
     x, _ = kinematic_seed(d, target, mask)
     x, iterations = descent(d, x, stiffness, max_iterations)
     z0 = polish_start(d, x, stiffness)
@@ -205,7 +205,7 @@ def relax_rows(
     masks: np.ndarray,
     stiffness: float,
     max_iterations: int,
-    settings: np.ndarray,
+    settings: NewtonSettings,
     zs: np.ndarray,
     status: np.ndarray,
     residual: np.ndarray,

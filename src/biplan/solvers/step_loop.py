@@ -25,16 +25,18 @@ resumes the nominal step after a chunk that went through.
 
 from __future__ import annotations
 
+from typing import NamedTuple
+
 import numpy as np
 from numba import njit
 
 from biplan.model.system.assemble import observe
 from biplan.model.system.inertia import kinetic_and_work, kinetic_energy, step_data
 from biplan.model.system.tables import SystemData
-from biplan.solvers.iteration import NO_BORDER, newton
+from biplan.solvers.iteration import NO_BORDER, NewtonSettings, newton
 from biplan.solvers.status import Status
 
-__all__ = ["CHUNK_STEPS", "COMPLETED", "STEP_FAILED", "step", "trajectory"]
+__all__ = ["CHUNK_STEPS", "COMPLETED", "STEP_FAILED", "StepSettings", "step", "trajectory"]
 
 #: Time steps per chunk.
 CHUNK_STEPS = 32
@@ -44,6 +46,36 @@ DAMPED_BACKTRACKS = 12
 COMPLETED, STEP_FAILED = 0, 1
 
 _CONVERGED = Status.CONVERGED.value
+
+
+class StepSettings(NamedTuple):
+    """The settings of a time step (:func:`step`), by name.
+
+    Attributes
+    ----------
+    alpha_m, alpha_f, gamma, beta : float
+        Generalized-α coefficients (:func:`coefficients`).
+    rayleigh : float
+        Mass-proportional damping α_R [1/s].
+    surface_density : float
+        Mass per area μ of the sheet [t/mm²].
+    atol : float
+        Newton tolerance ‖r‖∞ of a step.
+    max_iterations : int
+        Newton steps of a step.
+    energy_tolerance : float
+        Energy a converged step may create beyond 10 % of the energy it moves [N·mm].
+    """
+
+    alpha_m: float
+    alpha_f: float
+    gamma: float
+    beta: float
+    rayleigh: float
+    surface_density: float
+    atol: float
+    max_iterations: int
+    energy_tolerance: float
 
 
 @njit(cache=True)
@@ -75,26 +107,20 @@ def step(
     ctl: np.ndarray,
     times: np.ndarray,
     values: np.ndarray,
-    settings: np.ndarray,
+    settings: StepSettings,
 ) -> tuple:  # type: ignore[type-arg]
     """One generalized-α step from the state (z_n, v_n, a_n, q̈_n, scalars_n) to ``t_next``
     (= t_n + h); scalars = (F [N], z_p [mm], T [N·mm], Π [N·mm]) of the state.
 
-    ``settings = [α_m, α_f, γ, β, α_R, μ_surface, atol, max_iterations, energy_tol]``.
+    ``settings``: :class:`StepSettings`.
     A converged step is still rejected when it
     creates energy: T + Π − W + D may not grow by more than ``energy_tol`` plus 10 % of the
     energy the step moves (|ΔW| + |ΔD| + |ΔT|).
 
     Returns (z, v, a, q̈, scalars, ok, Newton steps, T, dissipated energy of the step).
     """
-    am, af, gamma, beta, alpha_r, mu = (
-        settings[0],
-        settings[1],
-        settings[2],
-        settings[3],
-        settings[4],
-        settings[5],
-    )
+    am, af, gamma, beta = settings.alpha_m, settings.alpha_f, settings.gamma, settings.beta
+    alpha_r, mu = settings.rayleigh, settings.surface_density
     n_q = d.sizes[0]
     lp = np.interp(t_next, times, values)
     load = np.array([ctl[0] * lp, ctl[1] * lp, ctl[2]])
@@ -109,7 +135,9 @@ def step(
     # predictor: constant acceleration extrapolation of q (multipliers as before)
     z0 = z_n.copy()
     z0[:n_q] = q_n + h * v_n + 0.5 * h**2 * qdd_n
-    newton_settings = np.array([settings[6], settings[7], DAMPED_BACKTRACKS, 1e-4, 0.0, 0.0])
+    newton_settings = NewtonSettings(
+        settings.atol, settings.max_iterations, int(DAMPED_BACKTRACKS), 1e-4, 0, False
+    )
     z, _, _, _, steps, status = newton(d, load, z0, newton_settings, NO_BORDER, 0.0, data)
     q = z[:n_q]
     a_new = (q - q_n - h * v_n - h**2 * (0.5 - beta) * a_n) / (beta * h**2)
@@ -123,7 +151,7 @@ def step(
     dissipated = alpha_r * dq_m_v
     created = kinetic + energy - scalars_n[2] - scalars_n[3] - work + dissipated
     moved = abs(work) + abs(dissipated) + abs(kinetic - scalars_n[2])
-    ok = status == _CONVERGED and created <= settings[8] + 0.1 * moved
+    ok = status == _CONVERGED and created <= settings.energy_tolerance + 0.1 * moved
     scalars = np.array([force, height, kinetic, energy])
     return z, v_new, a_new, qdd, scalars, ok, steps, kinetic, dissipated
 
@@ -156,7 +184,7 @@ def trajectory(
     ctl: np.ndarray,
     times: np.ndarray,
     values: np.ndarray,
-    settings: np.ndarray,
+    settings: StepSettings,
     t_end: float,
     time_step: float,
     max_halvings: int,

@@ -127,19 +127,21 @@ class NudgedElasticBand:
         if not isinstance(self.refine, Newton):
             raise ConfigError("NudgedElasticBand.refine", self.refine, "a biplan Newton")
 
-    def settings(self, spring: float | None = None, max_step: float | None = None) -> np.ndarray:
-        return np.array(
-            [
-                self.spring if spring is None else spring,
-                self.tolerance,
-                self.max_iterations,
-                1.0 if self.climbing else 0.0,
-                self.time_step,
-                self.max_time_step,
-                self.max_step if max_step is None else max_step,
-                self.contact_tolerance,
-                self.climb_start,
-            ]
+    def loop_settings(
+        self, spring: float | None = None, max_step: float | None = None
+    ) -> band_loop.BandSettings:
+        """These settings as the compiled band loop takes them (``spring`` and ``max_step``
+        replaced when given; every field of its type)."""
+        return band_loop.BandSettings(
+            float(self.spring if spring is None else spring),
+            float(self.tolerance),
+            int(self.max_iterations),
+            bool(self.climbing),
+            float(self.time_step),
+            float(self.max_time_step),
+            float(self.max_step if max_step is None else max_step),
+            float(self.contact_tolerance),
+            float(self.climb_start),
         )
 
 
@@ -257,18 +259,22 @@ def minimum_energy_path(
     if not isinstance(neb, NudgedElasticBand):
         raise ConfigError("neb", type(neb).__name__, "a NudgedElasticBand")
     za, zb = _as_state(model, z_start, "z_start"), _as_state(model, z_end, "z_end")
-    first = _attempt(model, neb, za, zb, neb.settings())
+    first = _attempt(model, neb, za, zb, neb.loop_settings())
     if first.converged:
         return first
     for spring, max_step in neb.fallbacks:
-        again = _attempt(model, neb, za, zb, neb.settings(spring, max_step))
+        again = _attempt(model, neb, za, zb, neb.loop_settings(spring, max_step))
         if again.converged:
             return again
     return first
 
 
 def _attempt(
-    model: Model, neb: NudgedElasticBand, za: np.ndarray, zb: np.ndarray, settings: np.ndarray
+    model: Model,
+    neb: NudgedElasticBand,
+    za: np.ndarray,
+    zb: np.ndarray,
+    settings: band_loop.BandSettings,
 ) -> MinimumEnergyPath:
     nq = model.n_coordinates
     t = np.linspace(0.0, 1.0, neb.n_images)[:, None]

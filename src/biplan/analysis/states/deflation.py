@@ -30,7 +30,7 @@ from biplan.model.assembly import Load, Model
 from biplan.model.system import System
 from biplan.solvers import deflated_loop as compiled_loop
 from biplan.solvers import observation
-from biplan.solvers.iteration import settings_array
+from biplan.solvers.iteration import newton_settings
 from biplan.solvers.newton import make_solution
 from biplan.solvers.status import Status
 
@@ -179,7 +179,7 @@ def _deflated_newton(
 ) -> tuple[np.ndarray, float, bool]:
     """(z, ‖r‖∞ undeflated, converged) of one deflated Newton run from z0 on the System at
     rest (:func:`biplan.solvers.deflated_loop.deflated_newton`)."""
-    settings = settings_array(cfg.tolerance, cfg.max_steps, BACKTRACKS, 1e-4, 0)
+    settings = newton_settings(cfg.tolerance, cfg.max_steps, BACKTRACKS, 1e-4, 0)
     z, code, res, _ = compiled_loop.deflated_newton(
         system.data, z0, np.stack(roots), float(cfg.power), float(cfg.shift), settings
     )
