@@ -159,7 +159,7 @@ def configure() -> None:
 class _Lazy:
     """A module imported, and :func:`configure` applied, on first attribute access: biplan's
     geometry, laws and compiled (Numba) core import ``jax``/``jnp`` from here without
-    importing JAX, so a process that never evaluates a JAX kernel never starts JAX nor
+    importing JAX, so a process that never evaluates a JAX function never starts JAX nor
     changes its settings."""
 
     def __init__(self, name: str) -> None:

@@ -96,7 +96,7 @@ def cft_force(
     """Specimen force F = H f(u / n) [N] of a CFT at extension ``displacement`` u [mm].
 
     Uniform fields (see the module docstring): exact on the stable phases. Evaluated in NumPy
-    through the fit basis (equal to ``law.force``, which compiles a JAX kernel per array
+    through the fit basis (equal to ``law.force``, which compiles a JAX function per array
     shape), so that it is cheap on curves of any length.
     """
     w = np.asarray(displacement, dtype=float) / geometry.n_folds

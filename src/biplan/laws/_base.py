@@ -1,4 +1,5 @@
-"""Common behaviour of fold laws: elementwise evaluation through the JAX kernels."""
+"""Common behaviour of fold laws: elementwise evaluation through their JAX forms
+(:mod:`biplan.laws._jax`)."""
 
 from __future__ import annotations
 

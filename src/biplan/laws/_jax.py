@@ -1,4 +1,4 @@
-"""Elementwise JAX kernels of the trilinear fold law.
+"""Elementwise JAX functions of the trilinear fold law.
 
 Main Eqs. (stiffness) and (field_constitutive_energy).
 

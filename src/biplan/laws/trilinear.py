@@ -73,7 +73,7 @@ class TrilinearLaw(LawMixin):
 
     @property
     def coefficients(self) -> tuple[float, float, float, float, float]:
-        """(k1, k2, k3, w1, w2) for the JAX kernels."""
+        """(k1, k2, k3, w1, w2) for the compiled kernels and the JAX functions."""
         return (*self.stiffness, *self.transitions)
 
     # --- characteristic points -------------------------------------------------------------

@@ -9,7 +9,7 @@ tube (guides g(q) = 0, contact gaps w_∂(q) ≥ 0):
 2. the band is relaxed by FIRE with constraint-projected NEB forces and, once the forces are
    small, a climbing image (Henkelman, Uberuaga & Jónsson 2000): the compiled loop
    :func:`biplan.solvers.band_loop.fire_band` on the model's System at rest (Numba, compiled
-   once for every tube; the JAX kernel it replaced is the tests' oracle,
+   once for every tube; the JAX loop it replaced is the tests' oracle,
    ``tests/jax_oracle/neb.py``);
 3. the climbing image, with its least-squares multipliers, starts a Newton solve of the full KKT
    system at zero load (:func:`biplan.solvers.iteration.newton`, contact by the smoothed
