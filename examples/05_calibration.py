@@ -22,8 +22,9 @@ from biplan.calibration.calibrate import (
     calibrate_linear,
     calibrate_trilinear,
 )
-from biplan.calibration.files import calibration_toml, read_specimens
+from biplan.calibration.files import read_specimens
 from biplan.calibration.fits import CftGeometry
+from biplan.calibration.law_blocks import calibration_toml
 from biplan.io.config import load_config_text
 
 QUICK = os.environ.get("BIPLAN_EXAMPLE_QUICK") == "1"
