@@ -1,19 +1,18 @@
-"""Stored kernels: traced once, reused by every later process (``jax.export``).
+"""Traced JAX functions: traced once, reused by every later process (``jax.export``).
 
 JAX's persistent compilation cache (:mod:`biplan._compile.setup`) skips XLA's compile on a warm
-start,
-but every new process still *traces and lowers* each kernel to find its cache key: for
-biplan's large kernels that is most of a warm start (a warm ``biplan demo`` spent 28 of its
+start, but every new process still *traces and lowers* each function to find its cache key: for
+biplan's large functions that is most of a warm start (a warm ``biplan demo`` spent 28 of its
 49 s tracing and lowering; docs/performance.md, "Warm starts: the trace store").
 
-:func:`stored_jit` is ``jax.jit`` plus a store of the traced kernels. On its first call for an
-argument signature (pytree structure, shapes and dtypes) a kernel is exported
+:func:`stored_jit` is ``jax.jit`` plus a store of the traced functions. On its first call for
+an argument signature (pytree structure, shapes and dtypes) a function is exported
 (:func:`jax.export.export`: traced and lowered to StableHLO once) and written to
 ``$BIPLAN_JAX_CACHE/kernels``; a later process (a new session, a Dask worker, the other test
 worker) reads it back and only compiles it — a hit in the persistent compilation cache when
-the cache is warm. The arithmetic is the kernel's own: results equal ``jax.jit``'s.
+the cache is warm. The arithmetic is the function's own: results equal ``jax.jit``'s.
 
-An entry is keyed by the kernel's name and static key (the tube layout, …), the signature,
+An entry is keyed by the function's name and static key (the tube layout, …), the signature,
 the JAX and jaxlib versions, the backend, and a fingerprint of biplan's own source files, so
 an edited or upgraded biplan never reads a stale kernel. The store follows the compilation
 cache: ``BIPLAN_JAX_CACHE=off`` turns both off; ``BIPLAN_TRACE_STORE=off`` turns off only
@@ -54,7 +53,7 @@ _FORMAT = 2
 
 
 def trace_store() -> Path | None:
-    """Folder of the stored kernels, or None when the store is off (read at each lookup)."""
+    """Folder of the stored traces, or None when the store is off (read at each lookup)."""
     if os.environ.get("BIPLAN_TRACE_STORE", "on").lower() in _OFF:
         return None
     if _jax.CACHE_DIR is None:

@@ -3,7 +3,8 @@
 :func:`write_netcdf` is ``Dataset.to_netcdf(path, engine="h5netcdf")`` for the in-memory
 datasets biplan writes. ``to_netcdf`` asks Dask which scheduler is active before every write
 (for its write lock and its auto-close rule), which imports ``dask.distributed`` whenever Dask is
-installed: about 0.3 s of every ``biplan respond`` (docs/performance.md). A dataset that holds
+installed: the first write of a process takes 246 ms instead of 54 ms
+(``benchmarks/bench_netcdf_write.py``; docs/performance.md). A dataset that holds
 no Dask arrays needs neither, so it is written through xarray's own h5netcdf store with
 xarray's HDF5 lock; a dataset with chunked variables goes through ``to_netcdf`` unchanged.
 Both give the same file (``tests/test_io_netcdf.py``).

@@ -261,12 +261,8 @@ def integrate(
     control = Control(load.kind, float(load.values[-1]))
     ctl = control.coefficients(model)
     times, values = load.padded()
-    am, af, gamma, beta = (float(c) for c in scheme.coefficients())
     settings = step_loop.StepSettings(
-        am,
-        af,
-        gamma,
-        beta,
+        *scheme.coefficients(),
         float(scheme.rayleigh),
         float(model.tube.surface_density),
         float(scheme.atol),
