@@ -5,7 +5,7 @@ Run:  .venv/bin/python benchmarks/bench_warm_kernels.py [--reference 6 48 200 40
 Semi-bistable laws and SI Table geometry on a base fold, N modules. Per N: the Newton solve at
 F = 0.5 N from the relaxed reference (``iteration.solve_system`` on the model's ``System``,
 best of 200 at N = 6, 20 at N = 48); at N = 6 the displacement-controlled arclength path to
-1.2 mm (best of 5). AutodiffFunctions load from the cache (or compile once first, not timed). To compare
+1.2 mm (best of 5). The kernels load from the cache (or compile once first, not timed). To compare
 LLVM levels, fill two caches at two levels (``benchmarks/bench_compile.py`` or ``NUMBA_OPT=k
 BIPLAN_NUMBA_CACHE=DIR biplan respond ...``) and run this with ``BIPLAN_NUMBA_CACHE=DIR``: the
 kernels are loaded as compiled, whatever ``NUMBA_OPT`` this process has.

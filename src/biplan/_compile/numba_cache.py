@@ -19,6 +19,13 @@ test suite), :func:`use_own_opt_level` compiles at LLVM -O1 instead of Numba's -
 run as fast (docs/performance.md, "One-time compile"). :func:`is_warm` tells whether the kernels
 of this install are compiled already (the first use after an install compiles them once, a few
 minutes).
+
+Every compiled function of biplan is declared with :func:`kernel` (Numba's ``njit`` with
+``cache=True``), which compiles one specialisation per argument *types*: a constant argument of
+a call from compiled code (``evaluate(d, x, load, True)``) is typed as its type, not as the
+literal value, so a function called with ``True`` in one place and ``False`` in another
+compiles once, not twice (each specialisation re-optimises all the code it calls:
+docs/performance.md, "One-time compile").
 """
 
 from __future__ import annotations
@@ -27,17 +34,32 @@ import functools
 import hashlib
 import os
 import re
+from collections.abc import Callable
 from pathlib import Path
 from typing import Any
 
+import numpy as np
+from numba import njit, types
 from numba.core import caching
 
-__all__ = ["OPT_LEVEL", "BiplanLocator", "cache_dir", "fingerprint", "is_warm", "use_own_opt_level"]
+__all__ = [
+    "OPT_LEVEL",
+    "BiplanLocator",
+    "cache_dir",
+    "fingerprint",
+    "is_warm",
+    "kernel",
+    "kernel_array",
+    "use_own_opt_level",
+]
 
 _PACKAGE = Path(__file__).resolve().parent.parent
 
-#: A line importing Numba (``import numba``, ``from numba… import``).
-_IMPORTS_NUMBA = re.compile(rb"^\s*(?:from|import)\s+numba\b", re.MULTILINE)
+#: A line importing Numba (``import numba``, ``from numba… import``) or :func:`kernel`.
+_IMPORTS_NUMBA = re.compile(
+    rb"^\s*(?:(?:from|import)\s+numba\b|from\s+biplan\._compile\.numba_cache\s+import\b.*\bkernel\b)",
+    re.MULTILINE,
+)
 #: LLVM optimisation level of the compile in biplan's own processes (:func:`use_own_opt_level`).
 OPT_LEVEL = 1
 
@@ -45,7 +67,8 @@ OPT_LEVEL = 1
 @functools.cache
 def fingerprint() -> str:
     """SHA-256 (first 16 hex digits) of the sources of every biplan module that imports Numba
-    (the modules of compiled functions; a module that only names them is not one)."""
+    or :func:`kernel` (the modules of compiled functions; a module that only names them is not
+    one)."""
     digest = hashlib.sha256()
     for path in sorted(_PACKAGE.rglob("*.py")):
         text = path.read_bytes()
@@ -88,6 +111,39 @@ def use_own_opt_level() -> None:
     from numba.core import config
 
     config.reload_config()
+
+
+def kernel(func: Callable[..., Any] | None = None, **options: Any) -> Any:
+    """``numba.njit(cache=True, **options)`` whose calls from compiled code are typed by the
+    arguments' types, never by a constant's value (module docstring): ``@kernel`` or
+    ``@kernel(inline="always")``.
+
+    A call with a constant argument from other compiled code would otherwise compile (and
+    cache) a specialisation for that literal value, e.g. one for ``second=True`` and one for
+    ``second=False``, each re-optimising every function below it.
+    """
+
+    def declare(f: Callable[..., Any]) -> Any:
+        dispatcher = njit(cache=True, **options)(f)
+        literal_call_template = dispatcher.get_call_template
+
+        def get_call_template(args: tuple, kws: dict) -> Any:  # type: ignore[type-arg]
+            args = tuple(types.unliteral(a) for a in args)
+            kws = {k: types.unliteral(v) for k, v in kws.items()}
+            return literal_call_template(args, kws)
+
+        dispatcher.get_call_template = get_call_template
+        return dispatcher
+
+    return declare if func is None else declare(func)
+
+
+def kernel_array(a: Any, dtype: Any = None) -> Any:
+    """``a`` as an array a kernel takes without compiling again: writable and C-contiguous
+    (copied only where it is not). Numba types a read-only array (a JAX array seen through
+    NumPy, a global constant, a view of a frozen buffer) or a strided one as another argument
+    type, so each would compile every kernel below the call once more."""
+    return np.require(a, dtype=dtype, requirements=("C", "W"))
 
 
 class BiplanLocator(caching._CacheLocator):

@@ -27,8 +27,8 @@ from __future__ import annotations
 from typing import NamedTuple, cast
 
 import numpy as np
-from numba import njit
 
+from biplan._compile.numba_cache import kernel
 from biplan.model.system.assemble import _FIRST, _SECOND, _terms
 from biplan.model.system.tables import SystemData
 from biplan.solvers.manifold import pinv, project
@@ -51,7 +51,7 @@ _OFF = cast(bool, np.False_)
 FIRE_N_MIN, FIRE_INC, FIRE_DEC, FIRE_ALPHA0, FIRE_FALPHA = 5, 1.1, 0.5, 0.1, 0.99
 
 
-@njit(cache=True)
+@kernel
 def _multipliers(signed: np.ndarray, active: np.ndarray, grad: np.ndarray) -> tuple:  # type: ignore[type-arg]
     """(least-squares multipliers x of rowsᵀ x ≈ −∇Π, the rows, pinv(rowsᵀ)): ``rows`` the
     signed constraint rows where ``active`` (zero elsewhere)."""
@@ -63,7 +63,7 @@ def _multipliers(signed: np.ndarray, active: np.ndarray, grad: np.ndarray) -> tu
     return inverse @ -grad, rows, inverse
 
 
-@njit(cache=True)
+@kernel
 def image_gradient(d: SystemData, q: np.ndarray, contact_tol: float) -> tuple:  # type: ignore[type-arg]
     """(Π [N·mm], P∇Π (n_q,), λ (n_g,) [N], λ_∂ (n_c,) [N] (0 off the active set), active
     signed rows A (n_g + n_c, n_q), pinv(Aᵀ)) at one image (module docstring, step 1);
@@ -95,7 +95,7 @@ def image_gradient(d: SystemData, q: np.ndarray, contact_tol: float) -> tuple:  
     return energy, proj, mult[:n_g].copy(), lam_c, rows, inverse
 
 
-@njit(cache=True)
+@kernel
 def _argmax(x: np.ndarray) -> int:
     """Index of the largest entry, the first NaN counting as largest (as ``jnp.argmax``)."""
     best = 0
@@ -107,7 +107,7 @@ def _argmax(x: np.ndarray) -> int:
     return best
 
 
-@njit(cache=True)
+@kernel
 def _gradients(
     d: SystemData, q: np.ndarray, contact_tol: float, first: int, last: int, out: tuple
 ) -> None:  # type: ignore[type-arg]
@@ -119,7 +119,7 @@ def _gradients(
         e[i], grad[i], lam[i], lam_c[i], rows[i], inverses[i] = image_gradient(d, q[i], contact_tol)
 
 
-@njit(cache=True)
+@kernel
 def _band_arrays(d: SystemData, m: int) -> tuple:  # type: ignore[type-arg]
     """The arrays of :func:`_gradients` for a band of m images."""
     n_q, n_g, n_c = d.sizes[0], d.sizes[1], d.sizes[2]
@@ -133,7 +133,7 @@ def _band_arrays(d: SystemData, m: int) -> tuple:  # type: ignore[type-arg]
     )
 
 
-@njit(cache=True)
+@kernel
 def _forces(q: np.ndarray, arrays: tuple, spring: float, climb: bool) -> tuple:  # type: ignore[type-arg]
     """(F (M, n_q), index of the highest interior image) from the image data ``arrays`` of
     :func:`_gradients` (module docstring, step 2)."""
@@ -169,7 +169,7 @@ def _forces(q: np.ndarray, arrays: tuple, spring: float, climb: bool) -> tuple: 
     return f, top + 1
 
 
-@njit(cache=True)
+@kernel
 def band_forces(
     d: SystemData, q: np.ndarray, spring: float, contact_tol: float, climb: bool
 ) -> tuple:  # type: ignore[type-arg]
@@ -217,7 +217,7 @@ class BandSettings(NamedTuple):
     climb_start: float
 
 
-@njit(cache=True)
+@kernel
 def fire_band(d: SystemData, q0: np.ndarray, settings: BandSettings) -> tuple:  # type: ignore[type-arg]
     """Relax a band q0 (M, n_q) whose end images are stationary states (module docstring);
     ``settings``: :class:`BandSettings`.

@@ -23,8 +23,8 @@ only (no default arguments), so each compiles once per install (``cache=True``).
 from __future__ import annotations
 
 import numpy as np
-from numba import njit
 
+from biplan._compile.numba_cache import kernel
 from biplan.model.system import assemble
 from biplan.model.system.tables import SystemData
 from biplan.solvers import lanes
@@ -37,7 +37,7 @@ __all__ = ["chord", "ramp", "solve_tasks"]
 _CONVERGED = Status.CONVERGED.value
 
 
-@njit(cache=True, nogil=True)
+@kernel(nogil=True)
 def _solve_rows(
     d: SystemData,
     z0: np.ndarray,
@@ -93,7 +93,7 @@ def solve_tasks(
     return z, status, steps
 
 
-@njit(cache=True)
+@kernel
 def _residual_norm(r: np.ndarray) -> float:
     """‖r‖∞, +∞ when r is not finite."""
     if np.all(np.isfinite(r)):
@@ -101,7 +101,7 @@ def _residual_norm(r: np.ndarray) -> float:
     return np.inf
 
 
-@njit(cache=True)
+@kernel
 def chord(
     d: SystemData,
     z: np.ndarray,
@@ -151,7 +151,7 @@ def chord(
     return best
 
 
-@njit(cache=True, nogil=True)
+@kernel(nogil=True)
 def ramp(
     d: SystemData,
     z0: np.ndarray,

@@ -26,8 +26,10 @@ from typing import Any
 
 import llvmlite.binding as llvm
 import numpy as np
-from numba import njit, types
+from numba import types
 from numba.extending import get_cython_function_address
+
+from biplan._compile.numba_cache import kernel
 
 __all__ = [
     "BACKWARD_TOL",
@@ -56,7 +58,7 @@ _dgbtrs: Any = types.ExternalFunction("biplan_dgbtrs", types.void(*([_P] * 11)))
 _NO_TRANSPOSE = 78  # ord("N")
 
 
-@njit(cache=True)
+@kernel
 def dense_solve(a: np.ndarray, b: np.ndarray) -> np.ndarray:
     """a⁻¹ b by LU; NaN where a is singular (as JAX's solve reports it)."""
     try:
@@ -65,7 +67,7 @@ def dense_solve(a: np.ndarray, b: np.ndarray) -> np.ndarray:
         return np.full(b.shape[0], np.nan)
 
 
-@njit(cache=True)
+@kernel
 def _backward_ok(
     a: np.ndarray, x: np.ndarray, b: np.ndarray, order: np.ndarray, n_inner: int, w: int
 ) -> bool:
@@ -96,7 +98,7 @@ def _backward_ok(
     return res <= BACKWARD_TOL * (norm_a * norm_x + norm_b)
 
 
-@njit(cache=True)
+@kernel
 def _factor_solve(ab: np.ndarray, kl: int, ku: int, rhs: np.ndarray) -> bool:
     """Banded LU of the band ``ab`` (LAPACK column-major AB(2 kl + ku + 1, m) as a C array
     (m, 2 kl + ku + 1), overwritten by its factors) and solve for the columns of ``rhs``
@@ -132,7 +134,7 @@ def _factor_solve(ab: np.ndarray, kl: int, ku: int, rhs: np.ndarray) -> bool:
     return True
 
 
-@njit(cache=True)
+@kernel
 def _eliminate(
     rhs: np.ndarray,
     border_rows: np.ndarray,
@@ -167,7 +169,7 @@ def _eliminate(
     return x_inner, x_border, bool(np.all(np.isfinite(x_border)))
 
 
-@njit(cache=True)
+@kernel
 def banded_solve(
     a: np.ndarray, b: np.ndarray, order: np.ndarray, n_inner: int, kl: int, ku: int
 ) -> tuple[np.ndarray, bool]:
@@ -231,7 +233,7 @@ def banded_solve(
     return x, ok
 
 
-@njit(cache=True)
+@kernel
 def lm_solve(
     a: np.ndarray, r: np.ndarray, damping: float, order: np.ndarray, n_inner: int, kl: int, ku: int
 ) -> tuple[np.ndarray, bool]:
@@ -303,7 +305,7 @@ def lm_solve(
     return dz, ok
 
 
-@njit(cache=True)
+@kernel
 def _full_order(order: np.ndarray, n: int) -> np.ndarray:
     """The layout's order for a system of n unknowns: a path's bordered system (one more
     unknown than the layout) takes its last unknown into the border."""
@@ -315,13 +317,13 @@ def _full_order(order: np.ndarray, n: int) -> np.ndarray:
     return full
 
 
-@njit(cache=True)
+@kernel
 def fits(n: int, order: np.ndarray, band: np.ndarray) -> bool:
     """Whether the layout (``order``, ``band``) serves a system of n unknowns."""
     return band.shape[0] == 3 and order.shape[0] <= n <= order.shape[0] + 1
 
 
-@njit(cache=True)
+@kernel
 def direction(
     a: np.ndarray, b: np.ndarray, order: np.ndarray, band: np.ndarray, structured: bool
 ) -> np.ndarray:

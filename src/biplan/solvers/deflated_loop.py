@@ -16,14 +16,12 @@ backtracking on ½‖R‖², the Levenberg–Marquardt fallback, the watchdog), 
 from __future__ import annotations
 
 import numpy as np
-from numba import njit
 
+from biplan._compile.numba_cache import kernel
 from biplan.model.system.assemble import _FIRST, evaluate
 from biplan.model.system.tables import SystemData
 from biplan.solvers.iteration import (
     ESCAPE,
-    NO_BORDER,
-    NO_STEP,
     NewtonSettings,
     deflate,
     log_deflation,
@@ -33,7 +31,7 @@ from biplan.solvers.iteration import (
 __all__ = ["ESCAPE", "deflated_newton", "deflated_system", "log_deflation"]
 
 
-@njit(cache=True)
+@kernel
 def deflated_system(
     d: SystemData,
     z: np.ndarray,
@@ -50,7 +48,7 @@ def deflated_system(
     return r, jac, m
 
 
-@njit(cache=True)
+@kernel
 def deflated_newton(
     d: SystemData,
     z0: np.ndarray,
@@ -66,6 +64,8 @@ def deflated_newton(
     Returns (z, status, ‖r‖∞ of the undeflated residual at z, accepted steps).
     """
     data = np.concatenate((np.array([power, shift]), roots.ravel()))
-    z, _, _, _, steps, status = solve(d, np.zeros(3), z0, settings, NO_BORDER, 0.0, NO_STEP, data)
+    z, _, _, _, steps, status = solve(
+        d, np.zeros(3), z0, settings, np.zeros(0), 0.0, np.zeros(0), data
+    )
     undeflated = evaluate(d, z, np.zeros(3), _FIRST)[0]
     return z, status, np.max(np.abs(undeflated)), steps

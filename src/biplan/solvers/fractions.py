@@ -9,8 +9,8 @@ state records them (:mod:`biplan.solvers.observation`); the state search labels 
 from __future__ import annotations
 
 import numpy as np
-from numba import njit
 
+from biplan._compile.numba_cache import kernel
 from biplan.model.system import assemble
 from biplan.model.system.elements import connector_points
 from biplan.model.system.tables import SystemData
@@ -18,7 +18,7 @@ from biplan.model.system.tables import SystemData
 __all__ = ["branch_fractions", "circular_fractions", "phase_fractions", "segment_fractions"]
 
 
-@njit(cache=True)
+@kernel
 def segment_fractions(w0: float, wl: float, law: np.ndarray, out: np.ndarray) -> None:
     """Adds the fractions of a linear field from w0 to wL [mm] on the closed, spinodal and open
     branch of law = (k1, k2, k3, w1, w2) to ``out`` (3,)
@@ -37,7 +37,7 @@ def segment_fractions(w0: float, wl: float, law: np.ndarray, out: np.ndarray) ->
     out[2] += (hi - b2) / width
 
 
-@njit(cache=True)
+@kernel
 def circular_fractions(d: SystemData, q: np.ndarray, out: np.ndarray) -> None:
     """Fills ``out`` (Nc, 3) with each connector's length-weighted branch fractions."""
     n, nc = d.ref.shape[0], d.conn_upper.shape[0]
@@ -78,7 +78,7 @@ def circular_fractions(d: SystemData, q: np.ndarray, out: np.ndarray) -> None:
             out[c, j] /= total
 
 
-@njit(cache=True)
+@kernel
 def branch_fractions(d: SystemData, q: np.ndarray, gaps: np.ndarray) -> np.ndarray:  # type: ignore[type-arg]
     """(N + Nc, 3) branch fractions of every fold, helical then circular, at q with gaps w_∂."""
     n, nc = d.ref.shape[0], d.conn_upper.shape[0]
@@ -90,7 +90,7 @@ def branch_fractions(d: SystemData, q: np.ndarray, gaps: np.ndarray) -> np.ndarr
     return fractions
 
 
-@njit(cache=True)
+@kernel
 def phase_fractions(d: SystemData, q: np.ndarray) -> np.ndarray:  # type: ignore[type-arg]
     """The fraction of every fold's length on the closed, spinodal and open branch of its law,
     (N + Nc, 3), helical folds then circular (:func:`biplan.model.potential.phase_fractions`)."""

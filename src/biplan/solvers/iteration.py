@@ -30,8 +30,8 @@ import math
 from typing import Any, NamedTuple
 
 import numpy as np
-from numba import njit
 
+from biplan._compile.numba_cache import kernel, kernel_array
 from biplan.model.system.assemble import evaluate
 from biplan.model.system.chainterm import load_point
 from biplan.model.system.inertia import add_inertia
@@ -60,7 +60,9 @@ _FAILED = Status.LINE_SEARCH_FAILED.value
 _NONFINITE = Status.NONFINITE.value
 
 
-#: No border row: the KKT system itself.
+#: No border row: the KKT system itself. (Python callers only: a global array read inside
+#: compiled code is a read-only constant, another argument type and another compile; compiled
+#: callers pass ``np.zeros(0)``.)
 NO_BORDER = np.zeros(0)
 #: No time step: the static system (else :func:`biplan.model.system.inertia.step_data`).
 NO_STEP = np.zeros(0)
@@ -120,7 +122,7 @@ def newton_settings(
     )
 
 
-@njit(cache=True)
+@kernel(inline="always")
 def system(
     d: SystemData,
     x: np.ndarray,
@@ -132,7 +134,10 @@ def system(
 ) -> tuple[np.ndarray, np.ndarray]:
     """(R(x), ∂R/∂x or (0, 0)): the KKT system at ``load`` when ``border`` is empty, else the
     bordered system with ``load`` the control coefficients (c_F, c_U, d) and ``border`` the
-    row (row_z, row_Λ) (module docstring)."""
+    row (row_z, row_Λ) (module docstring).
+
+    Inlined into :func:`solve`, its only caller: compiled on its own it would optimise the
+    assembly below it once more (docs/performance.md, "One-time compile")."""
     if border.shape[0] == 0:
         out = evaluate(d, x, load, second)
         if step.shape[0]:  # the inertia rows of a time step (solvers.step_loop)
@@ -165,12 +170,12 @@ def system(
 _solve = dense_solve
 
 
-@njit(cache=True)
+@kernel
 def _finite(x: np.ndarray) -> bool:
     return bool(np.all(np.isfinite(x)))
 
 
-@njit(cache=True)
+@kernel
 def _lm_step(jtj: np.ndarray, g: np.ndarray, damping: float) -> np.ndarray:
     """Levenberg–Marquardt step (JᵀJ + ν diag(JᵀJ + 1e-12)) dz = g, g = −Jᵀr (0 where not
     finite), from JᵀJ and g (:func:`_normal_equations`)."""
@@ -184,20 +189,20 @@ def _lm_step(jtj: np.ndarray, g: np.ndarray, damping: float) -> np.ndarray:
     return step
 
 
-@njit(cache=True)
+@kernel
 def _normal_equations(jac: np.ndarray, r: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """(JᵀJ, −Jᵀr) of the Levenberg–Marquardt step."""
     return jac.T @ jac, -(jac.T @ r)
 
 
-@njit(cache=True)
+@kernel
 def _lm_direction(jac: np.ndarray, r: np.ndarray, damping: float) -> np.ndarray:
     """Levenberg–Marquardt step (JᵀJ + ν diag(JᵀJ + 1e-12)) dz = −Jᵀr (0 where not finite)."""
     jtj, g = _normal_equations(jac, r)
     return _lm_step(jtj, g, damping)
 
 
-@njit(cache=True)
+@kernel
 def _levenberg_marquardt(
     d: SystemData,
     jac: np.ndarray,
@@ -223,7 +228,7 @@ def _levenberg_marquardt(
     return _lm_step(jtj, g, damping), jtj, g, True
 
 
-@njit(cache=True, inline="always")
+@kernel(inline="always")
 def newton(
     d: SystemData,
     load: np.ndarray,
@@ -246,18 +251,25 @@ def newton(
     would re-optimise the whole system below it once more (docs/performance.md, "One-time
     compile"); Python calls :func:`solve` with :data:`NO_DEFLATION` instead.
     """
-    return solve(d, load, z0, settings, border, rho, step, NO_DEFLATION)
+    return solve(d, load, z0, settings, border, rho, step, np.zeros(0))
 
 
 def solve_system(system: Any, z0: np.ndarray, settings: NewtonSettings) -> tuple:  # type: ignore[type-arg]
     """:func:`newton` on a :class:`~biplan.model.system.System` (its data and load) from z0,
     called from Python (through :func:`solve`, which is compiled on its own)."""
     return solve(  # type: ignore[no-any-return]
-        system.data, system.load, z0, settings, NO_BORDER, 0.0, NO_STEP, NO_DEFLATION
+        system.data,
+        system.load,
+        kernel_array(z0, float),
+        settings,
+        NO_BORDER,
+        0.0,
+        NO_STEP,
+        NO_DEFLATION,
     )
 
 
-@njit(cache=True)
+@kernel
 def log_deflation(q: np.ndarray, roots: np.ndarray, power: float, shift: float) -> tuple:  # type: ignore[type-arg]
     """(η = log M(q), ∇η (n_q,)) of the deflation operator M(q) = Π_i (‖q − q_i‖^−p + σ) over
     the known states ``roots`` (R, n_q) [mm, rad]; ``power`` p ≥ 1, ``shift`` σ ≥ 0 (Farrell,
@@ -277,7 +289,7 @@ def log_deflation(q: np.ndarray, roots: np.ndarray, power: float, shift: float) 
     return eta, grad
 
 
-@njit(cache=True)
+@kernel
 def deflate(
     d: SystemData, x: np.ndarray, res: np.ndarray, jac: np.ndarray, deflation: np.ndarray
 ) -> float:
@@ -305,7 +317,7 @@ def deflation_data(roots: np.ndarray, power: float, shift: float) -> np.ndarray:
     return np.concatenate([[float(power), float(shift)], np.asarray(roots, float).ravel()])
 
 
-@njit(cache=True)
+@kernel
 def solve(
     d: SystemData,
     load: np.ndarray,

@@ -23,8 +23,8 @@ each step. ∂min(w, 0)/∂w is 1 below zero, 0 above and ½ at zero (JAX's bala
 from __future__ import annotations
 
 import numpy as np
-from numba import njit
 
+from biplan._compile.numba_cache import kernel
 from biplan.model.system.assemble import _SECOND, _terms
 from biplan.model.system.tables import SystemData
 
@@ -44,7 +44,7 @@ _MAX_EVALS = max(ITERATIONS, 1) * (_HALVINGS + 1)
 _CONVERGED, _MAX_STEPS, _FAILED = 0, 1, 2
 
 
-@njit(cache=True)
+@kernel
 def pinv(a: np.ndarray) -> np.ndarray:
     """Moore–Penrose pseudo-inverse (n, m) of a (m, n) by SVD, singular values at or below
     :data:`PINV_RTOL` times the largest dropped (:func:`biplan._compile.linalg.pinv`); NaN
@@ -64,7 +64,7 @@ def pinv(a: np.ndarray) -> np.ndarray:
     return vt.T @ scaled
 
 
-@njit(cache=True)
+@kernel
 def constraints(d: SystemData, q: np.ndarray) -> tuple:  # type: ignore[type-arg]
     """(c (n_g + n_c,), ∂c/∂q (n_g + n_c, n_q), w_∂ (n_c,)) at q: c = (g, min(w_∂, 0)) [mm]
     (module docstring)."""
@@ -84,7 +84,7 @@ def constraints(d: SystemData, q: np.ndarray) -> tuple:  # type: ignore[type-arg
     return c, jac, gaps
 
 
-@njit(cache=True)
+@kernel
 def project(d: SystemData, q0: np.ndarray) -> np.ndarray:
     """q0 (n_q,) returned to the constraint manifold (module docstring) [mm, rad]."""
     n = q0.shape[0]

@@ -39,8 +39,8 @@ import math
 from typing import Any, NamedTuple
 
 import numpy as np
-from numba import njit
 
+from biplan._compile.numba_cache import kernel, kernel_array
 from biplan.model.system import assemble, chainterm
 from biplan.model.system.tables import SystemData
 from biplan.solvers import lanes
@@ -88,7 +88,7 @@ class Observation(NamedTuple):
     penetration: np.ndarray  # max(−w_∂, 0) [mm]: how far a contact closes past flat
 
 
-@njit(cache=True)
+@kernel
 def min_reduced_eigenvalue(k: np.ndarray, a: np.ndarray, active: np.ndarray) -> tuple[float, int]:
     """(λ_min(Nᵀ K N) [N/mm], dim N) for N the null space of the active rows of ``a``.
 
@@ -136,7 +136,7 @@ def min_reduced_eigenvalue(k: np.ndarray, a: np.ndarray, active: np.ndarray) -> 
     return np.linalg.eigvalsh(reduced)[0], dof
 
 
-@njit(cache=True)
+@kernel
 def _observation(
     d: SystemData,
     z: np.ndarray,
@@ -199,7 +199,7 @@ def _observation(
     )
 
 
-@njit(cache=True)
+@kernel
 def observe_state(
     d: SystemData, z: np.ndarray, load: np.ndarray, jac: np.ndarray, weak_contacts: bool
 ) -> tuple:
@@ -233,7 +233,7 @@ def observe_state(
     return _observation(d, z, load, jac, t[2], t[3], t[6], t[7], zp, weak_contacts)
 
 
-@njit(cache=True, inline="always")
+@kernel(inline="always")
 def _observe_one(d: SystemData, z: np.ndarray, load: np.ndarray, weak_contacts: bool) -> tuple:
     """:func:`observe_state` of z with its Jacobian assembled here."""
     _, jac, _, _, t = assemble.evaluate(d, z, load, True)
@@ -241,7 +241,7 @@ def _observe_one(d: SystemData, z: np.ndarray, load: np.ndarray, weak_contacts: 
     return _observation(d, z, load, jac, t[2], t[3], t[6], t[7], zp, weak_contacts)
 
 
-@njit(cache=True)
+@kernel
 def _allocate(k: int, n_f: int) -> tuple:
     """The output arrays of :func:`observe_rows` for k states of n_f folds."""
     return (
@@ -261,7 +261,7 @@ def _allocate(k: int, n_f: int) -> tuple:
     )
 
 
-@njit(cache=True)
+@kernel
 def _store(out: tuple, i: int, o: tuple) -> None:
     """Writes one state's observation ``o`` into row i of the outputs ``out``."""
     out[0][i], out[1][i], out[2][i], out[3][i], out[4][i] = o[0], o[1], o[2], o[3], o[4]
@@ -271,7 +271,7 @@ def _store(out: tuple, i: int, o: tuple) -> None:
     out[8][i], out[9][i], out[10][i], out[11][i], out[12][i] = o[8], o[9], o[10], o[11], o[12]
 
 
-@njit(cache=True, nogil=True)
+@kernel(nogil=True)
 def observe_rows(
     d: SystemData,
     zs: np.ndarray,
@@ -350,7 +350,7 @@ def observe(
         table = np.stack([np.broadcast_to(np.asarray(v, float), (k,)) for v in loads], axis=1)
     else:
         table = np.broadcast_to(np.asarray(loads, dtype=float), (k, 3))
-    table = np.ascontiguousarray(table)
+    table = kernel_array(table, float)  # (a broadcast row is read-only)
     if hasattr(source, "layout") and callable(getattr(source, "system", None)):  # a Model
         model = source
         if weak_contacts is None:

@@ -21,10 +21,10 @@ from __future__ import annotations
 from typing import NamedTuple
 
 import numpy as np
-from numba import njit
 
+from biplan._compile.numba_cache import kernel
 from biplan.model.system.tables import SystemData
-from biplan.solvers.iteration import NO_STEP, NewtonSettings, newton
+from biplan.solvers.iteration import NewtonSettings, newton
 from biplan.solvers.status import Status
 
 __all__ = [
@@ -83,7 +83,7 @@ class PathSettings(NamedTuple):
     stop_at_limit: bool
 
 
-@njit(cache=True, inline="always")
+@kernel(inline="always")
 def corrector(
     d: SystemData,
     z0: np.ndarray,
@@ -106,7 +106,7 @@ def corrector(
     settings = NewtonSettings(
         float(atol), int(max_iterations), int(DAMPED_BACKTRACKS), 1e-4, 0, False
     )
-    x, _, _, jac, steps, status = newton(d, ctl, x0, settings, row, rho, NO_STEP)
+    x, _, _, jac, steps, status = newton(d, ctl, x0, settings, row, rho, np.zeros(0))
     return (
         x[:n],
         x[n],
@@ -117,7 +117,7 @@ def corrector(
     )
 
 
-@njit(cache=True, nogil=True)
+@kernel(nogil=True)
 def correct_rows(
     d: SystemData,
     zp: np.ndarray,
@@ -141,7 +141,7 @@ def correct_rows(
         z[i], lam[i], ok[i] = out[0], out[1], out[2]
 
 
-@njit(cache=True)
+@kernel
 def tangent(
     jac: np.ndarray, r_load: np.ndarray, weights: np.ndarray, w_lam: float, previous: np.ndarray
 ) -> np.ndarray:
@@ -162,7 +162,7 @@ def tangent(
     return t / norm
 
 
-@njit(cache=True)
+@kernel
 def path_loop(
     d: SystemData,
     z0: np.ndarray,

@@ -35,8 +35,8 @@ from __future__ import annotations
 import math
 
 import numpy as np
-from numba import njit
 
+from biplan._compile.numba_cache import kernel
 from biplan.model.system.assemble import _SECOND, _terms
 from biplan.model.system.reduced import (
     fold_openings,
@@ -45,7 +45,7 @@ from biplan.model.system.reduced import (
     penalized_value,
 )
 from biplan.model.system.tables import SystemData
-from biplan.solvers.iteration import NO_BORDER, NO_STEP, NewtonSettings, _solve, newton
+from biplan.solvers.iteration import NewtonSettings, _solve, newton
 
 __all__ = ["relax_rows", "relax_seed"]
 
@@ -64,7 +64,7 @@ DESCENT_GTOL = 1e-3
 SHIFT_FLOOR = 1e-6
 
 
-@njit(cache=True)
+@kernel
 def _positive_definite(h: np.ndarray, floor: float) -> bool:
     """Whether h − floor·I has a Cholesky factorisation (every pivot > 0)."""
     n = h.shape[0]
@@ -84,7 +84,7 @@ def _positive_definite(h: np.ndarray, floor: float) -> bool:
     return True
 
 
-@njit(cache=True)
+@kernel
 def _seed_residual(d: SystemData, x: np.ndarray, target: np.ndarray, mask: np.ndarray) -> tuple:  # type: ignore[type-arg]
     w, jac = fold_openings(d, x)
     r = mask * (w - target)
@@ -93,12 +93,12 @@ def _seed_residual(d: SystemData, x: np.ndarray, target: np.ndarray, mask: np.nd
     return r, jac
 
 
-@njit(cache=True)
+@kernel
 def _finite(x: np.ndarray) -> bool:
     return bool(np.all(np.isfinite(x)))
 
 
-@njit(cache=True)
+@kernel
 def kinematic_seed(d: SystemData, target: np.ndarray, mask: np.ndarray) -> tuple:  # type: ignore[type-arg]
     """(x, max |r| [mm]): stage 1 (module docstring) toward fold openings ``target`` (N + Nc,)
     [mm] where ``mask`` is 1."""
@@ -119,7 +119,7 @@ def kinematic_seed(d: SystemData, target: np.ndarray, mask: np.ndarray) -> tuple
     return x, np.max(np.abs(_seed_residual(d, x, target, mask)[0]))
 
 
-@njit(cache=True)
+@kernel
 def descent(d: SystemData, x0: np.ndarray, stiffness: float, max_iterations: int) -> tuple:  # type: ignore[type-arg]
     """(x, iterations): stage 2 (module docstring) from x0 with penalty stiffness k_p [N/mm]."""
     x = x0.copy()
@@ -156,7 +156,7 @@ def descent(d: SystemData, x0: np.ndarray, stiffness: float, max_iterations: int
     return x, it
 
 
-@njit(cache=True)
+@kernel
 def polish_start(d: SystemData, x: np.ndarray, stiffness: float) -> np.ndarray:
     """The start z = [q(x), λ, λ_∂, 0] of the KKT polish (module docstring, stage 3)."""
     n_q, n_g, n_c = d.sizes[0], d.sizes[1], d.sizes[2]
@@ -179,7 +179,7 @@ def polish_start(d: SystemData, x: np.ndarray, stiffness: float) -> np.ndarray:
     return z
 
 
-@njit(cache=True)
+@kernel
 def relax_seed(
     d: SystemData,
     target: np.ndarray,
@@ -194,11 +194,11 @@ def relax_seed(
     x, iterations = descent(d, x, stiffness, max_iterations)
     z0 = polish_start(d, x, stiffness)
     at_rest = np.zeros(3)
-    z, r, _, _, _, status = newton(d, at_rest, z0, settings, NO_BORDER, 0.0, NO_STEP)
+    z, r, _, _, _, status = newton(d, at_rest, z0, settings, np.zeros(0), 0.0, np.zeros(0))
     return z, status, np.max(np.abs(r)), iterations
 
 
-@njit(cache=True, nogil=True)
+@kernel(nogil=True)
 def relax_rows(
     d: SystemData,
     targets: np.ndarray,

@@ -28,12 +28,12 @@ from __future__ import annotations
 from typing import NamedTuple
 
 import numpy as np
-from numba import njit
 
+from biplan._compile.numba_cache import kernel
 from biplan.model.system.assemble import observe
 from biplan.model.system.inertia import kinetic_and_work, kinetic_energy, step_data
 from biplan.model.system.tables import SystemData
-from biplan.solvers.iteration import NO_BORDER, NewtonSettings, newton
+from biplan.solvers.iteration import NewtonSettings, newton
 from biplan.solvers.status import Status
 
 __all__ = ["CHUNK_STEPS", "COMPLETED", "STEP_FAILED", "StepSettings", "step", "trajectory"]
@@ -78,7 +78,7 @@ class StepSettings(NamedTuple):
     energy_tolerance: float
 
 
-@njit(cache=True)
+@kernel
 def coefficients(rho_inf: float) -> tuple[float, float, float, float]:
     """(α_m, α_f, γ, β) of the generalized-α method for spectral radius ρ∞."""
     am = (2.0 * rho_inf - 1.0) / (rho_inf + 1.0)
@@ -87,14 +87,14 @@ def coefficients(rho_inf: float) -> tuple[float, float, float, float]:
     return am, af, gamma, 0.25 * (gamma + 0.5) ** 2
 
 
-@njit(cache=True)
+@kernel
 def _energies(d: SystemData, z: np.ndarray) -> tuple[float, float]:
     """(z_p [mm], Π [N·mm]) at z."""
     zp, _, e_hel, e_circ, _ = observe(d, z)
     return zp, e_hel.sum() + e_circ.sum()
 
 
-@njit(cache=True)
+@kernel
 def step(
     d: SystemData,
     z_n: np.ndarray,
@@ -138,7 +138,7 @@ def step(
     newton_settings = NewtonSettings(
         settings.atol, settings.max_iterations, int(DAMPED_BACKTRACKS), 1e-4, 0, False
     )
-    z, _, _, _, steps, status = newton(d, load, z0, newton_settings, NO_BORDER, 0.0, data)
+    z, _, _, _, steps, status = newton(d, load, z0, newton_settings, np.zeros(0), 0.0, data)
     q = z[:n_q]
     a_new = (q - q_n - h * v_n - h**2 * (0.5 - beta) * a_n) / (beta * h**2)
     v_new = v_n + h * (1.0 - gamma) * a_n + h * gamma * a_new
@@ -156,7 +156,7 @@ def step(
     return z, v_new, a_new, qdd, scalars, ok, steps, kinetic, dissipated
 
 
-@njit(cache=True)
+@kernel
 def initial_scalars(
     d: SystemData, z0: np.ndarray, v0: np.ndarray, force: float, surface_density: float
 ) -> np.ndarray:
@@ -167,14 +167,14 @@ def initial_scalars(
     return np.array([force, height, kinetic, energy])
 
 
-@njit(cache=True)
+@kernel
 def _grow(a: np.ndarray, size: int) -> np.ndarray:  # type: ignore[type-arg]
     out = np.zeros((size,) + a.shape[1:], dtype=a.dtype)  # noqa: RUF005 (Numba)
     out[: a.shape[0]] = a
     return out
 
 
-@njit(cache=True)
+@kernel
 def trajectory(
     d: SystemData,
     z0: np.ndarray,

@@ -18,9 +18,10 @@ from typing import Any
 import numpy as np
 
 from biplan._compile import numba_cache  # first: the kernels' cache locator
+from biplan._compile.numba_cache import kernel_array
 from biplan.geometry.layout import TubeLayout
 from biplan.model.system import assemble, chainterm, ordering
-from biplan.model.system.tables import SystemData, system_data
+from biplan.model.system.tables import SystemData, kernel_data, system_data
 from biplan.model.tube import Tube
 
 __all__ = ["System", "SystemData", "system_data"]
@@ -41,6 +42,11 @@ class System:
 
     data: SystemData
     load: np.ndarray
+
+    def __post_init__(self) -> None:
+        # writable, C-contiguous arrays only: one compiled signature per kernel
+        object.__setattr__(self, "data", kernel_data(self.data))
+        object.__setattr__(self, "load", kernel_array(self.load, float))
 
     @staticmethod
     def of(
@@ -105,20 +111,20 @@ class System:
 
     def residual(self, z: np.ndarray) -> np.ndarray:
         """r(z) (n_z,)."""
-        return assemble.residual(self.data, np.asarray(z, dtype=float), self.load)
+        return assemble.residual(self.data, kernel_array(z, float), self.load)
 
     def jacobian(self, z: np.ndarray) -> np.ndarray:
         """∂r/∂z (n_z, n_z)."""
-        return assemble.jacobian(self.data, np.asarray(z, dtype=float), self.load)
+        return assemble.jacobian(self.data, kernel_array(z, float), self.load)
 
     def evaluate(self, z: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """(r, ∂r/∂z) at z in one pass."""
-        out = assemble.evaluate(self.data, np.asarray(z, dtype=float), self.load, True)
+        out = assemble.evaluate(self.data, kernel_array(z, float), self.load, True)
         return out[0], out[1]
 
     def endpoint(self, q: np.ndarray) -> tuple[float, float, float]:
         """(u_z [mm], u_r [mm], θ [rad]) of the free end relative to q = 0 (MODEL R2)."""
-        u_z, u_r, theta = chainterm.endpoint(self.data, np.asarray(q, dtype=float))
+        u_z, u_r, theta = chainterm.endpoint(self.data, kernel_array(q, float))
         return float(u_z), float(u_r), float(theta)
 
     def state(self, z: np.ndarray, jac: np.ndarray | None = None) -> Any:
@@ -127,7 +133,7 @@ class System:
         from biplan.geometry.chain import Endpoint
         from biplan.model.params import StateData
 
-        z = np.asarray(z, dtype=float)
+        z = kernel_array(z, float)
         n_q, n_g, n_c = self.sizes
         jac = self.jacobian(z) if jac is None else jac
         zp, a, e_hel, e_circ, gaps = assemble.observe(self.data, z)

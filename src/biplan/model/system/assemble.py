@@ -26,12 +26,12 @@ import math
 from typing import cast
 
 import numpy as np
-from numba import njit
 
+from biplan._compile.numba_cache import kernel
 from biplan.model.system.chainterm import _gather, _load_point
 from biplan.model.system.elements import (
     field_energy,
-    kernel,
+    inlined_kernel,
     law_of,
     pivots,
     points_into,
@@ -45,7 +45,7 @@ __all__ = ["evaluate", "jacobian", "observe", "residual", "terms"]
 _FIRST, _SECOND = cast(bool, np.False_), cast(bool, np.True_)
 
 
-@kernel
+@inlined_kernel
 def _add_field(
     e: tuple,  # type: ignore[type-arg]
     g: np.ndarray,
@@ -74,7 +74,7 @@ def _add_field(
             )
 
 
-@kernel
+@inlined_kernel
 def _modules(
     d: SystemData,
     q: np.ndarray,
@@ -121,7 +121,7 @@ def _modules(
                     c_mat[2 * i + r, 3 * i + k] = gr[2 + r, k]
 
 
-@kernel
+@inlined_kernel
 def _connectors(
     d: SystemData,
     q: np.ndarray,
@@ -221,7 +221,7 @@ def _connectors(
                         hess[dofs[c, i], dofs[c, j]] += ch[i, j]
 
 
-@njit(cache=True, inline="always")
+@kernel(inline="always")
 def terms(
     d: SystemData,
     q: np.ndarray,
@@ -236,7 +236,7 @@ def terms(
     return _terms(d, q, lam, lam_c, bool(second))  # a run-time flag: one compilation
 
 
-@njit(cache=True)
+@kernel
 def _terms(
     d: SystemData,
     q: np.ndarray,
@@ -267,7 +267,7 @@ def _terms(
     return out
 
 
-@njit(cache=True, inline="always")
+@kernel(inline="always")
 def evaluate(
     d: SystemData,
     z: np.ndarray,
@@ -279,7 +279,7 @@ def evaluate(
     return _evaluate(d, z, load, bool(second))  # a run-time flag: one compilation
 
 
-@njit(cache=True)
+@kernel
 def _evaluate(
     d: SystemData,
     z: np.ndarray,
@@ -350,19 +350,19 @@ def _evaluate(
     return r, jac, zp, a, t
 
 
-@njit(cache=True)
+@kernel
 def residual(d: SystemData, z: np.ndarray, load: np.ndarray) -> np.ndarray:  # type: ignore[type-arg]
     """The KKT residual r(z) (module docstring)."""
     return _evaluate(d, z, load, _FIRST)[0]
 
 
-@njit(cache=True)
+@kernel
 def jacobian(d: SystemData, z: np.ndarray, load: np.ndarray) -> np.ndarray:  # type: ignore[type-arg]
     """The KKT Jacobian ∂r/∂z (:func:`biplan.model.lagrangian.kkt_jacobian`)."""
     return _evaluate(d, z, load, _SECOND)[1]
 
 
-@njit(cache=True)
+@kernel
 def observe(d: SystemData, z: np.ndarray) -> tuple:  # type: ignore[type-arg]
     """(z_p [mm], ∇z_p (n_q,), helical energies (N,), circular energies (Nc,), gaps (n_c,))
     at z, whatever the load (the first-order data of a state)."""

@@ -24,10 +24,10 @@ from __future__ import annotations
 import math
 
 import numpy as np
-from numba import njit
 
+from biplan._compile.numba_cache import kernel
 from biplan.model.system import readings
-from biplan.model.system.elements import Quad, angles, edge, kernel, pair, pivots, rotated
+from biplan.model.system.elements import Quad, angles, edge, inlined_kernel, pair, pivots, rotated
 from biplan.model.system.tables import SystemData
 
 __all__ = [
@@ -40,7 +40,7 @@ __all__ = [
 ]
 
 
-@kernel
+@inlined_kernel
 def _gather(q: np.ndarray, dofs: np.ndarray, c: int, x: np.ndarray) -> None:
     """Fills ``x`` (7,) with connector c's coordinates x_c (0 at the clamp's), ``dofs``: the
     table ``conn_dofs``."""
@@ -48,7 +48,7 @@ def _gather(q: np.ndarray, dofs: np.ndarray, c: int, x: np.ndarray) -> None:
         x[k] = 0.0 if dofs[c, k] < 0 else q[dofs[c, k]]
 
 
-@kernel
+@inlined_kernel
 def _frame(
     x: np.ndarray,
     c: int,
@@ -110,7 +110,7 @@ def _frame(
     return alpha, tz, ts, delta
 
 
-@kernel
+@inlined_kernel
 def _local_hessian(
     c: int,
     dofs: np.ndarray,
@@ -149,7 +149,7 @@ def _local_hessian(
     hessian[g, g] += coef * (cc * (pz - delta) - ss * ps)
 
 
-@kernel
+@inlined_kernel
 def _connector(
     d: SystemData,  # type: ignore[type-arg]
     x: np.ndarray,
@@ -168,13 +168,13 @@ def _connector(
     )
 
 
-@njit(cache=True)
+@kernel
 def _dofs(d: SystemData, c: int) -> np.ndarray:  # type: ignore[type-arg]
     """Global coordinate of each of connector c's 7 local coordinates (−1: the clamp's)."""
     return d.conn_dofs[c].copy()
 
 
-@njit(cache=True)
+@kernel
 def _increment(x: np.ndarray, d: SystemData, c: int, want: bool) -> tuple:  # type: ignore[type-arg]
     """(α, t_z, t_s), J (3, 7), Hessians (3, 7, 7) (zeros unless ``want``) of connector c's
     frame increment at x_c = ``x``: :func:`_frame` with its local Hessians as dense arrays
@@ -204,7 +204,7 @@ def _increment(x: np.ndarray, d: SystemData, c: int, want: bool) -> tuple:  # ty
     return alpha, tz, ts, jac[0].copy(), hess
 
 
-@kernel
+@inlined_kernel
 def _top(
     q: np.ndarray, m: int, ref: np.ndarray, weights: np.ndarray, g: np.ndarray, hd: np.ndarray
 ) -> tuple[float, float]:
@@ -233,7 +233,7 @@ def _top(
     return zbar, sbar
 
 
-@njit(cache=True)
+@kernel
 def _chain_end(d: SystemData, q: np.ndarray) -> tuple[float, float, float]:  # type: ignore[type-arg]
     """(θ, p_z, p_s): the top module's frame at q, composed up the chain (value only)."""
     if d.flags[2] == 1 or d.flags[3] == 1:
@@ -251,7 +251,7 @@ def _chain_end(d: SystemData, q: np.ndarray) -> tuple[float, float, float]:  # t
     return theta, pz, ps
 
 
-@njit(cache=True, inline="always")
+@kernel(inline="always")
 def load_point(
     d: SystemData,
     q: np.ndarray,
@@ -266,7 +266,7 @@ def load_point(
     return _load_point(d, q, gradient, hessian, coef, bool(second))
 
 
-@njit(cache=True)
+@kernel
 def _load_point(
     d: SystemData,
     q: np.ndarray,
@@ -360,7 +360,7 @@ def _load_point(
     return value
 
 
-@njit(cache=True)
+@kernel
 def load_height(d: SystemData, q: np.ndarray) -> float:  # type: ignore[type-arg]
     """Z(q): the load point's height [mm] (value only, under either R3 attachment)."""
     n = d.ref.shape[0]
@@ -370,13 +370,13 @@ def load_height(d: SystemData, q: np.ndarray) -> float:  # type: ignore[type-arg
     return pz + math.cos(theta) * zbar - math.sin(theta) * sbar
 
 
-@njit(cache=True)
+@kernel
 def reference_height(d: SystemData) -> float:
     """Z(0): the load point at q = 0 (depends on the geometry only)."""
     return load_height(d, np.zeros(d.sizes[0]))
 
 
-@njit(cache=True)
+@kernel
 def edge_points(d: SystemData, q: np.ndarray) -> np.ndarray:  # type: ignore[type-arg]
     """Global (z, s) [mm] of the free-end edge's segment ends, (S, 2, 2) (the top module's
     nodes in the frame composed up the chain; :func:`biplan.geometry.chain.end_edge_points`)."""
@@ -395,7 +395,7 @@ def edge_points(d: SystemData, q: np.ndarray) -> np.ndarray:  # type: ignore[typ
     return out
 
 
-@njit(cache=True)
+@kernel
 def edge_statistics(segs: np.ndarray, seam: bool) -> tuple[float, float, float]:
     """Mean z, mean s [mm] and tilt θ [rad] of the free-end edge from its segment ends
     (S, 2, 2): the length-weighted means and least-squares tilt (``EndpointDefinition.EDGE``,
@@ -422,7 +422,7 @@ def edge_statistics(segs: np.ndarray, seam: bool) -> tuple[float, float, float]:
     return zm, sm, math.atan(-zs / ss)
 
 
-@njit(cache=True)
+@kernel
 def endpoint(d: SystemData, q: np.ndarray) -> tuple[float, float, float]:
     """(u_z [mm], u_r [mm], θ [rad]) of the free end relative to q = 0 (MODEL R2)."""
     seam = d.flags[1] == 1

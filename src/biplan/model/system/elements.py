@@ -31,7 +31,8 @@ from __future__ import annotations
 import math
 
 import numpy as np
-from numba import njit
+
+from biplan._compile.numba_cache import kernel
 
 __all__ = [
     "angles",
@@ -51,7 +52,7 @@ __all__ = [
 
 #: The decorator of the kernels (module docstring): compiled once per signature and inlined
 #: by LLVM into their callers, with NumPy's error model.
-kernel = njit(cache=True, forceinline=True, error_model="numpy")
+inlined_kernel = kernel(forceinline=True, error_model="numpy")
 
 #: (cos φ1, sin φ1, cos φ2, sin φ2) of a module (:func:`angles`) or (z, s, z, s) of its pivots
 #: (:func:`pivots`): a pair per element.
@@ -65,13 +66,13 @@ Law = np.ndarray | tuple[float, float, float, float, float]
 SPLIT_TOLERANCE = 1e-6
 
 
-@kernel
+@inlined_kernel
 def law_of(table: np.ndarray, i: int) -> tuple[float, float, float, float, float]:
     """Row i of a law table (``helical``, ``circular``): (k1, k2, k3, w1, w2), no view."""
     return table[i, 0], table[i, 1], table[i, 2], table[i, 3], table[i, 4]
 
 
-@kernel
+@inlined_kernel
 def branch(w: float, law: Law) -> int:
     """0 closed (w < w1), 1 spinodal, 2 open (w ≥ w2) for law = (k1, k2, k3, w1, w2)."""
     if w < law[3]:
@@ -81,7 +82,7 @@ def branch(w: float, law: Law) -> int:
     return 2
 
 
-@kernel
+@inlined_kernel
 def on_branch(j: int, w: float, law: Law) -> tuple[float, float, float]:
     """(Ψ [N], F [N/mm], k [N/mm²]) of branch j's quadratic at w (MODEL §1)."""
     k1, k2, k3, w1, w2 = law[0], law[1], law[2], law[3], law[4]
@@ -99,7 +100,7 @@ def on_branch(j: int, w: float, law: Law) -> tuple[float, float, float]:
     return psi2 + f2 * d2 + 0.5 * k3 * d2 * d2, f2 + k3 * d2, k3
 
 
-@kernel
+@inlined_kernel
 def _piece(t0: float, t1: float, w0: float, dw: float, law: Law) -> tuple:
     """The integrals of :func:`field_energy` over t ∈ [t0, t1] (per unit length), by Simpson's
     rule on the branch of the piece's midpoint (exact: one quadratic branch)."""
@@ -117,7 +118,7 @@ def _piece(t0: float, t1: float, w0: float, dw: float, law: Law) -> tuple:
     return e, ea, eb, eaa, eab, ebb
 
 
-@njit(cache=True, forceinline=True, error_model="numpy")
+@kernel(forceinline=True, error_model="numpy")
 def field_energy(w0: float, wl: float, length: float, law: Law) -> tuple:
     """(E, E_a, E_b, E_aa, E_ab, E_bb): the field energy [N·mm] of a linear field from
     a = w0 to b = wL over ``length`` [mm] and its derivatives in (a, b).
@@ -162,14 +163,14 @@ def field_energy(w0: float, wl: float, length: float, law: Law) -> tuple:
     return length * e, length * ea, length * eb, length * eaa, length * eab, length * ebb
 
 
-@kernel
+@inlined_kernel
 def angles(phi1: float, phi2: float) -> Quad:
     """(cos φ1, sin φ1, cos φ2, sin φ2) of a module's element angles: the kernels below take
     an element's angle through these, so each angle costs one cos and one sin."""
     return math.cos(phi1), math.sin(phi1), math.cos(phi2), math.sin(phi2)
 
 
-@kernel
+@inlined_kernel
 def _line(
     u: float, c: float, sn: float, pz: float, ps: float, z_edge: float, s: float
 ) -> tuple[float, float, float]:
@@ -188,7 +189,7 @@ def _line(
     return h, h1, h2
 
 
-@njit(cache=True)
+@kernel
 def line_height(
     u: float, phi: float, pz: float, ps: float, z_edge: float, s: float
 ) -> tuple[float, float, float]:
@@ -198,7 +199,7 @@ def line_height(
     return _line(u, math.cos(phi), math.sin(phi), pz, ps, z_edge, s)
 
 
-@kernel
+@inlined_kernel
 def pair(t: Quad, element: int) -> tuple[float, float]:
     """Element ``element``'s pair of a :data:`Quad` (not t[2 e]: a run-time tuple index
     raises IndexError out of range, an exception path)."""
@@ -207,14 +208,14 @@ def pair(t: Quad, element: int) -> tuple[float, float]:
     return t[2], t[3]
 
 
-@kernel
+@inlined_kernel
 def pivots(ref: np.ndarray, m: int) -> Quad:
     """(z, s, z, s) [mm] of module m's pivots in the reference table ``ref`` (N, 7, 2): node 0,
     about which element 1 turns, and node 6, about which element 2 turns."""
     return ref[m, 0, 0], ref[m, 0, 1], ref[m, 6, 0], ref[m, 6, 1]
 
 
-@kernel
+@inlined_kernel
 def edge(
     u: float, trig: Quad, piv: Quad, element: int, z_edge: float, s: float
 ) -> tuple[float, float, float]:
@@ -225,7 +226,7 @@ def edge(
     return _line(u, c, sn, pz, ps, z_edge, s)
 
 
-@kernel
+@inlined_kernel
 def _turn(
     u: float, c: float, sn: float, z0: float, s0: float, pz: float, ps: float
 ) -> tuple[float, float, float, float, float, float]:
@@ -235,7 +236,7 @@ def _turn(
     return rz + pz + u, rs + ps, -sn * dz - c * ds, c * dz - sn * ds, -rz, -rs
 
 
-@njit(cache=True, inline="always")
+@kernel(inline="always")
 def rotated(
     u: float, trig: Quad, ref: np.ndarray, m: int, i: int, element: int
 ) -> tuple[float, float, float, float, float, float]:
@@ -247,7 +248,7 @@ def rotated(
     return _turn(u, c, sn, ref[m, i, 0], ref[m, i, 1], ref[m, pivot, 0], ref[m, pivot, 1])
 
 
-@njit(cache=True)
+@kernel
 def node(x: np.ndarray, ref: np.ndarray, i: int, element: int) -> tuple:
     """(z, s, ∂z/∂φ, ∂s/∂φ, ∂²z/∂φ², ∂²s/∂φ²) of node i of a module (MODEL §4, SI Eq. 10):
     r = R(φ_e)(r0 − P_e) + P_e + [u, 0], φ_e = x[1 + element]."""
@@ -258,7 +259,7 @@ def node(x: np.ndarray, ref: np.ndarray, i: int, element: int) -> tuple:
     )
 
 
-@njit(cache=True, inline="always")
+@kernel(inline="always")
 def _project(
     r: tuple,  # type: ignore[type-arg]
     element: int,
@@ -279,7 +280,7 @@ def _project(
     hdiag[row, 1 + element] += sign * (d2z * v0 + d2s * v1)
 
 
-@kernel
+@inlined_kernel
 def rows_into(
     q: np.ndarray,
     m: int,
@@ -319,7 +320,7 @@ def rows_into(
     _project(r_c, 0, -1.0, s0, s1, 3, vals, grad, hdiag)
 
 
-@njit(cache=True)
+@kernel
 def module_rows(
     x: np.ndarray, ref: np.ndarray, n_c: np.ndarray, n_sp: np.ndarray
 ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
@@ -337,7 +338,7 @@ def module_rows(
     return vals, grad, hdiag
 
 
-@kernel
+@inlined_kernel
 def points_into(
     x: np.ndarray,
     p_lo: Quad,
@@ -404,7 +405,7 @@ def points_into(
             grad[p, 6] += 2.0
 
 
-@njit(cache=True)
+@kernel
 def connector_points(
     x: np.ndarray,
     ref_lower: np.ndarray,

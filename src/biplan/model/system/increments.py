@@ -22,15 +22,15 @@ import cmath
 import math
 
 import numpy as np
-from numba import njit
 
+from biplan._compile.numba_cache import kernel
 from biplan.model.system import jets
 from biplan.model.system.tables import SystemData
 
 __all__ = ["increment3", "line_height3"]
 
 
-@njit(cache=True)
+@kernel
 def line_height3(
     u: float, phi: float, pz: float, ps: float, z_edge: float, s: float
 ) -> tuple[float, float, float, float]:
@@ -58,7 +58,7 @@ def line_height3(
     return h, h1, h2, h3
 
 
-@njit(cache=True)
+@kernel
 def _delta(
     x: np.ndarray, d: SystemData, c: int, gd: np.ndarray, hd: np.ndarray, td: np.ndarray
 ) -> float:
@@ -94,7 +94,7 @@ def _delta(
     return delta
 
 
-@njit(cache=True)
+@kernel
 def _increment3(
     x: np.ndarray,
     v: np.ndarray,
@@ -161,7 +161,7 @@ def _increment3(
     return alpha
 
 
-@njit(cache=True)
+@kernel
 def _add_node(
     jet: np.ndarray,  # type: ignore[type-arg]
     coef: complex,
@@ -181,7 +181,7 @@ def _add_node(
     jet[jets.THIRD + k] -= coef * 1j * r * vk * vk
 
 
-@njit(cache=True)
+@kernel
 def _fit(
     d: SystemData,
     x: np.ndarray,
@@ -230,7 +230,7 @@ def _fit(
     return a, t
 
 
-@njit(cache=True)
+@kernel
 def _fit_increment3(
     x: np.ndarray,
     v: np.ndarray,
@@ -254,7 +254,7 @@ def _fit_increment3(
     return alpha, t
 
 
-@njit(cache=True)
+@kernel
 def _paper_increment3(
     x: np.ndarray,
     v: np.ndarray,
@@ -279,7 +279,7 @@ def _paper_increment3(
     return theta, t
 
 
-@njit(cache=True)
+@kernel
 def increment3(
     x: np.ndarray,
     v: np.ndarray,

@@ -27,8 +27,8 @@ from __future__ import annotations
 import math
 
 import numpy as np
-from numba import njit
 
+from biplan._compile.numba_cache import kernel
 from biplan.model.system.inertia_chain import centre_hessian, curved_rows, path, terms
 from biplan.model.system.quadrature import bodies
 from biplan.model.system.tables import SystemData
@@ -42,13 +42,13 @@ __all__ = [
 ]
 
 
-@njit(cache=True)
+@kernel
 def _local(u: np.ndarray, dofs: np.ndarray, out: np.ndarray) -> None:  # type: ignore[type-arg]
     for k in range(7):
         out[k] = u[dofs[k]] if dofs[k] >= 0 else 0.0
 
 
-@njit(cache=True)
+@kernel
 def _inertia(
     d: SystemData,
     q: np.ndarray,
@@ -255,14 +255,14 @@ def _inertia(
     return force, mat
 
 
-@njit(cache=True)
+@kernel
 def mass_matrix(d: SystemData, q: np.ndarray, surface_density: float) -> np.ndarray:  # type: ignore[type-arg]
     """M(q) = Σ_k w_k J_kᵀ J_k, (n_q, n_q) [t·mm² per unit² of q]."""
     z = np.zeros_like(q)
     return _inertia(d, q, z, z, surface_density, 0.0, 0.0, 0)[1]
 
 
-@njit(cache=True)
+@kernel
 def inertia_force(
     d: SystemData, q: np.ndarray, v: np.ndarray, a: np.ndarray, surface_density: float
 ) -> np.ndarray:  # type: ignore[type-arg]
@@ -270,13 +270,13 @@ def inertia_force(
     return _inertia(d, q, v, a, surface_density, 0.0, 0.0, 1)[0]
 
 
-@njit(cache=True)
+@kernel
 def kinetic_energy(d: SystemData, q: np.ndarray, v: np.ndarray, surface_density: float) -> float:  # type: ignore[type-arg]
     """T = ½ q̇ᵀ M(q) q̇ [N·mm]."""
     return _inertia(d, q, v, v, surface_density, 0.0, 0.0, 3)[0][0]
 
 
-@njit(cache=True)
+@kernel
 def kinetic_and_work(
     d: SystemData, q: np.ndarray, v: np.ndarray, u: np.ndarray, surface_density: float
 ) -> tuple[float, float]:
@@ -285,7 +285,7 @@ def kinetic_and_work(
     return out[0], out[1]
 
 
-@njit(cache=True)
+@kernel
 def step_data(
     q_base: np.ndarray,
     v_base: np.ndarray,
@@ -306,7 +306,7 @@ def step_data(
     return out
 
 
-@njit(cache=True)
+@kernel
 def add_inertia(
     d: SystemData,
     q: np.ndarray,

@@ -15,15 +15,15 @@ from __future__ import annotations
 import math
 
 import numpy as np
-from numba import njit
 
+from biplan._compile.numba_cache import kernel
 from biplan.model.system.increments import increment3
 from biplan.model.system.tables import SystemData
 
 __all__ = ["centre_hessian", "curved_rows", "path", "terms"]
 
 
-@njit(cache=True)
+@kernel
 def terms(d: SystemData, q: np.ndarray, v: np.ndarray, centre: np.ndarray) -> tuple:  # type: ignore[type-arg]
     """The chain terms of every body centre c_b = Σ_j R(θ_j) t_j: the connectors' increments
     (terms 0 … Nc − 1) and each body's translation in its module frame (term Nc + b),
@@ -82,7 +82,7 @@ def terms(d: SystemData, q: np.ndarray, v: np.ndarray, centre: np.ndarray) -> tu
     return dofs, g, ha, avv, t, jt, ht, tvv, th, parent
 
 
-@njit(cache=True)
+@kernel
 def path(parent: np.ndarray, d: SystemData, m: int, nc: int, b: int, out: np.ndarray) -> int:  # type: ignore[type-arg]
     """The terms of body b of module m, bottom to top, into ``out``: the connectors below m,
     then Nc + b; returns their number."""
@@ -103,7 +103,7 @@ def path(parent: np.ndarray, d: SystemData, m: int, nc: int, b: int, out: np.nda
     return size
 
 
-@njit(cache=True)
+@kernel
 def curved_rows(
     chain: np.ndarray,
     size: int,
@@ -137,7 +137,7 @@ def curved_rows(
                     mat[ck, cl] += coef * ha[j, k, l]
 
 
-@njit(cache=True)
+@kernel
 def centre_hessian(
     chain: np.ndarray,
     size: int,

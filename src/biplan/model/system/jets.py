@@ -25,7 +25,8 @@ from __future__ import annotations
 import cmath
 
 import numpy as np
-from numba import njit
+
+from biplan._compile.numba_cache import kernel
 
 __all__ = [
     "GRAD",
@@ -47,7 +48,7 @@ SIZE = 64
 GRAD, HESS, THIRD = 1, 8, 57
 
 
-@njit(cache=True)
+@kernel
 def constant(value: complex) -> np.ndarray:  # type: ignore[type-arg]
     """The jet of a constant."""
     out = np.zeros(SIZE, dtype=np.complex128)
@@ -55,7 +56,7 @@ def constant(value: complex) -> np.ndarray:  # type: ignore[type-arg]
     return out
 
 
-@njit(cache=True)
+@kernel
 def variable(value: float, k: int) -> np.ndarray:  # type: ignore[type-arg]
     """The jet of the coordinate x_k at x_k = ``value``."""
     out = np.zeros(SIZE, dtype=np.complex128)
@@ -64,7 +65,7 @@ def variable(value: float, k: int) -> np.ndarray:  # type: ignore[type-arg]
     return out
 
 
-@njit(cache=True)
+@kernel
 def _moments(a: np.ndarray, v: np.ndarray, hv: np.ndarray) -> tuple[complex, complex]:  # type: ignore[type-arg]
     """(s = ∇a·v, ψ = vᵀ ∇²a v) of a jet; fills ``hv`` (7,) with ∇²a v."""
     s = 0j
@@ -79,7 +80,7 @@ def _moments(a: np.ndarray, v: np.ndarray, hv: np.ndarray) -> tuple[complex, com
     return s, psi
 
 
-@njit(cache=True)
+@kernel
 def product(a: np.ndarray, b: np.ndarray, v: np.ndarray) -> np.ndarray:  # type: ignore[type-arg]
     """The jet of a b."""
     ha = np.empty(7, dtype=np.complex128)
@@ -106,7 +107,7 @@ def product(a: np.ndarray, b: np.ndarray, v: np.ndarray) -> np.ndarray:  # type:
     return out
 
 
-@njit(cache=True)
+@kernel
 def apply(
     a: np.ndarray,  # type: ignore[type-arg]
     h0: complex,
@@ -130,14 +131,14 @@ def apply(
     return out
 
 
-@njit(cache=True)
+@kernel
 def exp_i(a: np.ndarray, v: np.ndarray) -> np.ndarray:  # type: ignore[type-arg]
     """The jet of e^{i a} (a rotation by the angle a)."""
     e = cmath.exp(1j * a[0])
     return apply(a, e, 1j * e, -e, -1j * e, v)
 
 
-@njit(cache=True)
+@kernel
 def log(a: np.ndarray, v: np.ndarray) -> np.ndarray:  # type: ignore[type-arg]
     """The jet of log a (principal branch: Im log(C + i S) = atan2(S, C))."""
     w = a[0]
@@ -145,7 +146,7 @@ def log(a: np.ndarray, v: np.ndarray) -> np.ndarray:  # type: ignore[type-arg]
     return apply(a, cmath.log(w), r, -r * r, 2.0 * r * r * r, v)
 
 
-@njit(cache=True)
+@kernel
 def tan(a: np.ndarray, v: np.ndarray) -> np.ndarray:  # type: ignore[type-arg]
     """The jet of tan a."""
     t = cmath.tan(a[0])

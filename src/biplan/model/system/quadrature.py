@@ -21,8 +21,8 @@ from __future__ import annotations
 import math
 
 import numpy as np
-from numba import njit
 
+from biplan._compile.numba_cache import kernel
 from biplan.model.system.chainterm import _dofs
 from biplan.model.system.elements import node
 from biplan.model.system.increments import increment3
@@ -39,7 +39,7 @@ EDGES = np.array(
 TRIANGLES = np.array([[0, 1, 2], [0, 2, 3], [4, 5, 6]], dtype=np.int64)
 
 
-@njit(cache=True)
+@kernel
 def quadrature_weights(d: SystemData, surface_density: float) -> np.ndarray:  # type: ignore[type-arg]
     """w_k = μ A_tri / 3 [t] of each quadrature point (N·9,) (reference areas: the frames
     are rigid, so the module frame's areas are the global ones)."""
@@ -57,7 +57,7 @@ def quadrature_weights(d: SystemData, surface_density: float) -> np.ndarray:  # 
     return w
 
 
-@njit(cache=True)
+@kernel
 def _parents(d: SystemData) -> np.ndarray:  # type: ignore[type-arg]
     """The connector below each module (−1: the module's frame is the identity)."""
     parent = np.full(d.ref.shape[0], -1, dtype=np.int64)
@@ -66,7 +66,7 @@ def _parents(d: SystemData) -> np.ndarray:  # type: ignore[type-arg]
     return parent
 
 
-@njit(cache=True)
+@kernel
 def quadrature(d: SystemData, q: np.ndarray, v: np.ndarray, jacobian: bool) -> tuple:  # type: ignore[type-arg]
     """(p (K, 2), ∂p/∂q (K, 2, n_q) or (0, 2, n_q), (∂²p)[v, v] (K, 2)) of the quadrature
     points p_k(q) [mm] (module docstring; K = 9 N, module-major as :data:`EDGES`)."""
@@ -179,7 +179,7 @@ def quadrature(d: SystemData, q: np.ndarray, v: np.ndarray, jacobian: bool) -> t
     return pts, jac_out, acc
 
 
-@njit(cache=True)
+@kernel
 def bodies(d: SystemData, surface_density: float) -> tuple:  # type: ignore[type-arg]
     """(m (2N,) [t], centre (2N, 2) [mm] in the module frame, I (2N,) [t·mm²] about the
     centre) of the rigid elements (body 2m + e: element e of module m), the moments of the

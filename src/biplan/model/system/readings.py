@@ -35,15 +35,15 @@ from __future__ import annotations
 import math
 
 import numpy as np
-from numba import njit
 
+from biplan._compile.numba_cache import kernel
 from biplan.model.system.elements import angles, rotated
 from biplan.model.system.tables import SystemData
 
 __all__ = ["chain_end", "fit", "increment", "load_point"]
 
 
-@njit(cache=True)
+@kernel
 def fit(d: SystemData, q: np.ndarray, m: int, segs: np.ndarray) -> tuple:  # type: ignore[type-arg]
     """((a, t_z, t_s), Jacobian (3, 3), Hessians (3, 3, 3)) of module m's edge fit in its
     coordinates (u, φ1, φ2); ``segs`` (2, 2): the segments' end nodes, -1 none (module
@@ -122,7 +122,7 @@ def fit(d: SystemData, q: np.ndarray, m: int, segs: np.ndarray) -> tuple:  # typ
     return value, jac, hess
 
 
-@njit(cache=True)
+@kernel
 def increment(d: SystemData, q: np.ndarray, c: int) -> tuple:  # type: ignore[type-arg]
     """(y_c (3,), ∂y_c/∂x_c (3, 7), ∂²y_c/∂x_c² (3, 7, 7)) of connector c: (angle, t_z, t_s),
     x_c = (x_lower, x_upper, γ), under R1 ``PAPER`` or R3 ``EDGE_FIT`` (module docstring)."""
@@ -131,7 +131,7 @@ def increment(d: SystemData, q: np.ndarray, c: int) -> tuple:  # type: ignore[ty
     return _fit_increment(d, q, c)
 
 
-@njit(cache=True)
+@kernel
 def _paper_increment(d: SystemData, q: np.ndarray, c: int) -> tuple:  # type: ignore[type-arg]
     """:func:`increment` under R1 ``PAPER``."""
     n = d.ref.shape[0]
@@ -169,7 +169,7 @@ def _paper_increment(d: SystemData, q: np.ndarray, c: int) -> tuple:  # type: ig
     return y, jac, hess
 
 
-@njit(cache=True)
+@kernel
 def _fit_increment(d: SystemData, q: np.ndarray, c: int) -> tuple:  # type: ignore[type-arg]
     """:func:`increment` under R3 ``EDGE_FIT``."""
     n = d.ref.shape[0]
@@ -229,7 +229,7 @@ def _fit_increment(d: SystemData, q: np.ndarray, c: int) -> tuple:  # type: igno
     return y, jac, hess
 
 
-@njit(cache=True)
+@kernel
 def chain_end(d: SystemData, q: np.ndarray) -> tuple[float, float, float]:  # type: ignore[type-arg]
     """(θ, p_z, p_s): the top module's frame at q, the increments composed up the chain."""
     theta, pz, ps = 0.0, 0.0, 0.0
@@ -242,7 +242,7 @@ def chain_end(d: SystemData, q: np.ndarray) -> tuple[float, float, float]:  # ty
     return theta, pz, ps
 
 
-@njit(cache=True)
+@kernel
 def load_point(
     d: SystemData,
     q: np.ndarray,
@@ -324,7 +324,7 @@ def load_point(
     return value
 
 
-@njit(cache=True)
+@kernel
 def _outer(
     hessian: np.ndarray, rows: np.ndarray, u: np.ndarray, cols: np.ndarray, v: np.ndarray, s: float
 ) -> None:

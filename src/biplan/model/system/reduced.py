@@ -30,8 +30,8 @@ from __future__ import annotations
 import math
 
 import numpy as np
-from numba import njit
 
+from biplan._compile.numba_cache import kernel
 from biplan.model.system.assemble import _FIRST, _SECOND, _terms
 from biplan.model.system.elements import connector_points, module_rows
 from biplan.model.system.tables import SystemData
@@ -48,7 +48,7 @@ __all__ = [
 _GUIDED = ((2, 0), (5, 6))
 
 
-@njit(cache=True)
+@kernel
 def _angle(ref: np.ndarray, node: int, pivot: int, nz: float, ns: float, u: float) -> tuple:  # type: ignore[type-arg]
     """(φ, φ', φ'') [rad, rad/mm, rad/mm²] of the guided node ``node`` about ``pivot`` of one
     module (reference nodes ``ref`` (7, 2), crease tangent (nz, ns)) at axial displacement u."""
@@ -68,7 +68,7 @@ def _angle(ref: np.ndarray, node: int, pivot: int, nz: float, ns: float, u: floa
     return phi, -sgn * nz / (rho * root), sgn * nz * nz * t / (rho * rho * root**3)
 
 
-@njit(cache=True)
+@kernel
 def full_coordinates(d: SystemData, x: np.ndarray) -> tuple:  # type: ignore[type-arg]
     """(q (n_q,), φ' (N, 2), φ'' (N, 2)) of reduced coordinates x (N + Nc,) (module
     docstring); NaN angles in a locked module."""
@@ -90,7 +90,7 @@ def full_coordinates(d: SystemData, x: np.ndarray) -> tuple:  # type: ignore[typ
     return q, d1, d2
 
 
-@njit(cache=True)
+@kernel
 def _column(i: int, n: int, d1: np.ndarray) -> tuple:  # type: ignore[type-arg]
     """(first row, rows, weights) of column i of T = ∂Q/∂x."""
     if i < n:
@@ -98,7 +98,7 @@ def _column(i: int, n: int, d1: np.ndarray) -> tuple:  # type: ignore[type-arg]
     return 2 * n + i, 1, (1.0, 0.0, 0.0)
 
 
-@njit(cache=True)
+@kernel
 def reduce_derivatives(
     grad: np.ndarray, hess: np.ndarray, d1: np.ndarray, d2: np.ndarray, second: bool
 ) -> tuple[np.ndarray, np.ndarray]:
@@ -127,7 +127,7 @@ def reduce_derivatives(
     return gx, hx
 
 
-@njit(cache=True)
+@kernel
 def penalized_value(d: SystemData, x: np.ndarray, stiffness: float) -> tuple:  # type: ignore[type-arg]
     """(Π(q(x)) + ½ k_p ‖min(w_∂, 0)‖² [N·mm], w_∂ (n_c,)) at reduced coordinates x; NaN
     where a module is locked."""
@@ -141,7 +141,7 @@ def penalized_value(d: SystemData, x: np.ndarray, stiffness: float) -> tuple:  #
     return value, gaps
 
 
-@njit(cache=True)
+@kernel
 def penalized_derivatives(
     d: SystemData, x: np.ndarray, gaps: np.ndarray, stiffness: float
 ) -> tuple[np.ndarray, np.ndarray]:
@@ -163,7 +163,7 @@ def penalized_derivatives(
     return reduce_derivatives(t[0], hess, d1, d2, _SECOND)
 
 
-@njit(cache=True)
+@kernel
 def fold_openings(d: SystemData, x: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """(w̄ (N + Nc,), ∂w̄/∂x (N + Nc, N + Nc)): the length-mean elongation [mm] of every fold,
     helical then circular (length-weighted over a connector's fields), at reduced coordinates

@@ -14,6 +14,7 @@ from typing import NamedTuple
 
 import numpy as np
 
+from biplan._compile.numba_cache import kernel_array
 from biplan.geometry import chain, frames
 from biplan.geometry.layout import TubeLayout
 from biplan.options import (
@@ -26,7 +27,7 @@ from biplan.options import (
     ModuleKind,
 )
 
-__all__ = ["SystemData", "system_data"]
+__all__ = ["SystemData", "kernel_data", "system_data"]
 
 
 class SystemData(NamedTuple):
@@ -98,6 +99,15 @@ def _reference(kind: ModuleKind, mirror: MirrorConvention, l: float, h: float, h
     return nodes, qz, qs
 
 
+def kernel_data(data: SystemData) -> SystemData:
+    """``data`` with every field writable and C-contiguous
+    (:func:`biplan._compile.numba_cache.kernel_array`: one compiled signature per kernel)."""
+    fields = [kernel_array(a) for a in data]
+    if all(a is b for a, b in zip(fields, data, strict=True)):
+        return data
+    return SystemData(*fields)
+
+
 def system_data(
     layout: TubeLayout,
     radius: float,
@@ -139,7 +149,7 @@ def system_data(
     n_cc = nc if minimum else len(t.contact_pt)
     n_q = 3 * n + nc
     segs = np.array([[i0, i1] for _, i0, i1 in t.end_segments], dtype=np.int64)
-    return SystemData(
+    data = SystemData(
         sizes=np.array([n_q, 2 * n, 2 * n + n_cc], dtype=np.int64),
         scalars=np.array(
             [
@@ -193,6 +203,7 @@ def system_data(
         solve_order=np.zeros(0, dtype=np.int64),
         solve_band=np.zeros(0, dtype=np.int64),
     )
+    return kernel_data(data)  # law rows from JAX or a frozen array are read-only
 
 
 def _load_weights(point: LoadPoint, ref_top: np.ndarray, segs: np.ndarray, ratio: float):  # type: ignore[no-untyped-def]
