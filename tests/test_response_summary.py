@@ -61,6 +61,16 @@ def test_state_at_the_terminal_force_is_interpolated() -> None:
     s = summarize(_curve([0.0, 1.0, 2.0]), force=1.5, initial_length=2.0)
     assert s.u_z_ratio == pytest.approx(0.5 * 0.5 * (0.4 + 0.6))
     assert s.u_r_ratio == pytest.approx(-0.1 * s.u_z_ratio) and s.at_force == 1.5
+    assert "at F = 1.5 N: u_z/l0 = 0.2500" in s.lines()[-1]
+
+
+def test_a_force_never_reached_is_said_not_printed_as_nan() -> None:
+    """A compression run (forces ≤ 0) never reaches the reported tensile force: the summary
+    says so instead of printing u_z/l0 = nan."""
+    s = summarize(_curve([0.0, -1.0, -2.0]), force=1.6, initial_length=2.0)
+    assert np.isnan(s.u_z_ratio)
+    assert s.lines()[-1] == "F = 1.6 N is not reached by the recorded response"
+    assert "nan" not in "\n".join(s.lines())
 
 
 def test_phase_one_is_one_definition() -> None:

@@ -14,6 +14,7 @@ import numpy as np
 import pytest
 
 import biplan
+from biplan._compile.numba_cache import kernel_array
 from biplan._compile.setup import jax, jnp
 from biplan.analysis.stability import classify
 from biplan.analysis.states import deflation
@@ -123,7 +124,7 @@ def _core_newton(d, roots, n: int, cfg: Deflation):
         shape = jax.ShapeDtypeStruct((n,), jnp.float64)
 
         def fn(v):
-            return deflated_loop.deflated_system(d, np.asarray(v), roots, 2.0, 1.0, False)[0]
+            return deflated_loop.deflated_system(d, kernel_array(v), roots, 2.0, 1.0, False)[0]
 
         return jax.pure_callback(fn, shape, z)
 
@@ -131,7 +132,7 @@ def _core_newton(d, roots, n: int, cfg: Deflation):
         shape = jax.ShapeDtypeStruct((n, n), jnp.float64)
 
         def fn(v):
-            return deflated_loop.deflated_system(d, np.asarray(v), roots, 2.0, 1.0, True)[1]
+            return deflated_loop.deflated_system(d, kernel_array(v), roots, 2.0, 1.0, True)[1]
 
         return jax.pure_callback(fn, shape, z)
 
@@ -139,7 +140,7 @@ def _core_newton(d, roots, n: int, cfg: Deflation):
         shape = jax.ShapeDtypeStruct((), jnp.float64)
 
         def fn(v):
-            return np.float64(deflated_loop.log_deflation(np.asarray(v), roots, 2.0, 1.0)[0])
+            return np.float64(deflated_loop.log_deflation(kernel_array(v), roots, 2.0, 1.0)[0])
 
         return jnp.exp(jax.pure_callback(fn, shape, z[:4]))
 

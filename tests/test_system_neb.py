@@ -14,6 +14,7 @@ import numpy as np
 import pytest
 
 import biplan
+from biplan._compile.numba_cache import kernel_array
 from biplan._compile.setup import jax, jnp
 from biplan.analysis.stability import classify
 from biplan.analysis.states.barriers import NudgedElasticBand, minimum_energy_path
@@ -83,16 +84,16 @@ def _core_return(d, n: int):
 
     def res(x):
         shape = jax.ShapeDtypeStruct((m,), jnp.float64)
-        return jax.pure_callback(lambda v: manifold.constraints(d, np.asarray(v))[0], shape, x)
+        return jax.pure_callback(lambda v: manifold.constraints(d, kernel_array(v))[0], shape, x)
 
     def jac(x):
         shape = jax.ShapeDtypeStruct((m, n), jnp.float64)
-        return jax.pure_callback(lambda v: manifold.constraints(d, np.asarray(v))[1], shape, x)
+        return jax.pure_callback(lambda v: manifold.constraints(d, kernel_array(v))[1], shape, x)
 
     def solve(a, b):
         shape = jax.ShapeDtypeStruct((n,), jnp.float64)
         return jax.pure_callback(
-            lambda a, b: manifold.pinv(np.asarray(a)) @ np.asarray(b), shape, a, b
+            lambda a, b: manifold.pinv(kernel_array(a)) @ np.asarray(b), shape, a, b
         )
 
     settings = Settings.of(manifold.TOLERANCE, manifold.ITERATIONS, 1, 1e-4, 0)

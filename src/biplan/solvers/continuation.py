@@ -28,6 +28,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from biplan._compile.numba_cache import kernel_array
 from biplan._errors import ConfigError, ConvergenceError, check_integer, check_range
 from biplan.model.assembly import Model
 from biplan.solvers import path_loop
@@ -223,9 +224,9 @@ def trace_path(
     system = model.system()
     z, load_parameter, tang, steps, its, count, cutbacks, code = path_loop.path_loop(
         system.data,
-        first.z,
+        kernel_array(first.z, float),
         float(load_parameter0),
-        np.asarray(ctl, dtype=float),
+        kernel_array(ctl, float),
         float(control.stop),
         method.loop_settings(weight),
     )

@@ -31,6 +31,7 @@ from typing import Any
 
 import numpy as np
 
+from biplan._compile.numba_cache import kernel_array
 from biplan._errors import (
     ConfigError,
     ConvergenceError,
@@ -342,17 +343,18 @@ def _run_system(
     system = model.system()
     d = system.data
     mu = float(model.tube.surface_density)
+    z0, v = kernel_array(z0, float), kernel_array(v, float)
     qdd0, force0 = _initial_acceleration(system, z0, v, load0, mu)
-    scalars0 = step_loop.initial_scalars(d, np.asarray(z0, dtype=float), v, force0, mu)
+    scalars0 = step_loop.initial_scalars(d, z0, v, force0, mu)
     ts, zs, vs, kins, its, diss, count, rejected, code = step_loop.trajectory(
         d,
-        np.asarray(z0, dtype=float),
+        z0,
         v,
-        qdd0,
+        kernel_array(qdd0, float),
         scalars0,
-        np.asarray(ctl, dtype=float),
-        times,
-        values,
+        kernel_array(ctl, float),
+        kernel_array(times, float),
+        kernel_array(values, float),
         settings,
         float(t_end),
         float(scheme.time_step),

@@ -106,10 +106,13 @@ class ResponseSummary:
                 f"{self.softening_end:.3f} mm without a snap (a transformation held by "
                 "displacement control)"
             )
-        out.append(
-            f"at F = {self.at_force:g} N: u_z/l0 = {self.u_z_ratio:.4f}, "
-            f"u_r/l0 = {self.u_r_ratio:.4f}, theta = {self.theta:.4f} rad"
-        )
+        if np.isfinite(self.u_z_ratio):
+            out.append(
+                f"at F = {self.at_force:g} N: u_z/l0 = {self.u_z_ratio:.4f}, "
+                f"u_r/l0 = {self.u_r_ratio:.4f}, theta = {self.theta:.4f} rad"
+            )
+        else:
+            out.append(f"F = {self.at_force:g} N is not reached by the recorded response")
         return out
 
 

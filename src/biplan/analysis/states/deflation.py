@@ -24,6 +24,7 @@ from typing import Any
 
 import numpy as np
 
+from biplan._compile.numba_cache import kernel_array
 from biplan._errors import ConfigError, check_integer, check_range
 from biplan.analysis.stability import classify
 from biplan.model.assembly import Load, Model
@@ -181,7 +182,12 @@ def _deflated_newton(
     rest (:func:`biplan.solvers.deflated_loop.deflated_newton`)."""
     settings = newton_settings(cfg.tolerance, cfg.max_steps, BACKTRACKS, 1e-4, 0)
     z, code, res, _ = compiled_loop.deflated_newton(
-        system.data, z0, np.stack(roots), float(cfg.power), float(cfg.shift), settings
+        system.data,
+        kernel_array(z0, float),
+        np.stack(roots),
+        float(cfg.power),
+        float(cfg.shift),
+        settings,
     )
     res = float(res)
     return z, res, int(code) == Status.CONVERGED.value and res < cfg.tolerance
