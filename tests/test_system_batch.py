@@ -22,7 +22,7 @@ from biplan.solvers.observation import ACTIVE_GAP, observe
 
 #: The stability map's seed solves (StabilitySearch: 15 steps, 4 halvings).
 SEARCH = Newton(max_steps=15, max_backtracks=4)
-NO_BORDER, NO_STEP = iteration.NO_BORDER, iteration.NO_STEP
+NO_BORDER, NO_STEP, NO_DEFLATION = iteration.NO_BORDER, iteration.NO_STEP, iteration.NO_DEFLATION
 
 
 @pytest.fixture(scope="module")
@@ -58,7 +58,7 @@ def test_batched_solve_equals_one_compiled_newton_per_task(points) -> None:
     loads = _displacement(u)
     z, status, steps = batch.solve_tasks(data, z0, loads, s)
     for i in range(len(z0)):
-        ref = iteration.newton(data, loads[i], z0[i], s, NO_BORDER, 0.0, NO_STEP)
+        ref = iteration.solve(data, loads[i], z0[i], s, NO_BORDER, 0.0, NO_STEP, NO_DEFLATION)
         assert (status[i], steps[i]) == (ref[5], ref[4])
         np.testing.assert_array_equal(z[i], ref[0])
     conv = status == Status.CONVERGED.value
@@ -82,7 +82,7 @@ def test_point_tasks_are_equilibria_of_their_own_point_observed_alone(points) ->
     status = np.empty(len(rows), dtype=np.int64)
     for i, row in enumerate(rows):
         data = models[row].system().data
-        ref = iteration.newton(data, loads[i], z0[i], s, NO_BORDER, 0.0, NO_STEP)
+        ref = iteration.solve(data, loads[i], z0[i], s, NO_BORDER, 0.0, NO_STEP, NO_DEFLATION)
         status[i] = ref[5]
         np.testing.assert_array_equal(z[i], ref[0])
     np.testing.assert_array_equal(tasks.solve(rows, z0, u, SEARCH)[1], status)
@@ -182,7 +182,7 @@ def _ramp_reference(model: Model, forces: np.ndarray, newton: Newton) -> tuple:
     for k, force in enumerate(forces):
         f = np.array([force, 0.0, 0.0])
         start = batch.chord(data, z, jac, f, newton.atol, CHORD_ITERATIONS)
-        out = iteration.newton(data, f, start, s, NO_BORDER, 0.0, NO_STEP)
+        out = iteration.solve(data, f, start, s, NO_BORDER, 0.0, NO_STEP, NO_DEFLATION)
         if out[5] != Status.CONVERGED.value or not np.all(np.isfinite(out[0])):
             bad[k] = out[5]
             break

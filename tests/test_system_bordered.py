@@ -150,8 +150,15 @@ def test_newton_reaches_the_same_equilibrium_with_and_without_the_structure():
     )
     settings = iteration.newton_settings(1e-9, 60, 8, 1e-4, 0)
     outs = [
-        iteration.newton(
-            d, system.load, ref.z, settings, iteration.NO_BORDER, 0.0, iteration.NO_STEP
+        iteration.solve(
+            d,
+            system.load,
+            ref.z,
+            settings,
+            iteration.NO_BORDER,
+            0.0,
+            iteration.NO_STEP,
+            iteration.NO_DEFLATION,
         )
         for d in (system.data, dense)
     ]

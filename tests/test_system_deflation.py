@@ -164,7 +164,7 @@ def test_deflated_newton_takes_the_jax_iterates(model1, known, starts):
     wanders far from the roots and takes Levenberg–Marquardt steps, whose solves stay JAX's,
     and their rounding grows with every step)."""
     d = model1.system().data
-    roots = known[:, :4]
+    roots = kernel_array(known[:, :4])
     settings = newton_settings(CFG.tolerance, CFG.max_steps, deflation.BACKTRACKS, 1e-4, 0)
     core = _core_newton(d, roots, len(starts[0]), CFG)
     padded, mask = jax_deflation.padded(list(roots))

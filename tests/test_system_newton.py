@@ -31,9 +31,7 @@ def test_compiled_newton_takes_the_jax_iterates(model6, reference6, case):
     s = iteration.newton_settings(
         method.atol, method.max_steps, method.max_backtracks, method.armijo, method.free_steps
     )
-    z, _, _, jac, steps, status = iteration.newton(
-        system.data, system.load, reference6.z, s, iteration.NO_BORDER, 0.0, iteration.NO_STEP
-    )
+    z, _, _, jac, steps, status = iteration.solve_system(system, reference6.z, s)
     out, _ = solve_loop.compiled(model6.layout)(
         model6.params, reference6.z, load.for_jax(), settings_of(method)
     )
