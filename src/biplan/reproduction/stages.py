@@ -30,8 +30,8 @@ the run goes on) and fills the :class:`~biplan.reproduction.facts.Results` field
 * ``movie`` — the Movie S1 analogue, the paper's force ramp (0.8 N/s, 2 s, generalized-α):
   ``ramp.nc``, ``movie_S1.mp4`` (``.gif`` when ffmpeg is unavailable).
 
-The command adds the interactive pages of ``biplan explore`` as a last stage
-(:mod:`biplan.cli.reproduce`). Heavy modules (JAX, matplotlib) are imported by the stages
+The map stages live in :mod:`biplan.reproduction.map_stages`. The command adds the interactive
+pages of ``biplan explore`` as a last stage (:mod:`biplan.cli.reproduce`). Heavy modules (JAX, matplotlib) are imported by the stages
 themselves, so that importing this module stays cheap.
 """
 
@@ -53,7 +53,6 @@ import numpy as np
 from biplan.calibration.validation import write_comparison
 from biplan.reproduction import figures
 from biplan.reproduction.facts import (
-    PAPER_B,
     CalibrationFacts,
     MovieFacts,
     Results,
@@ -61,7 +60,14 @@ from biplan.reproduction.facts import (
     ValidationFacts,
     state_facts,
 )
-from biplan.reproduction.settings import INSTABILITY_UP_TO, SWEEP_END, Settings
+from biplan.reproduction.map_stages import (
+    run_map_python,
+    semi_design,
+    stage_design_map,
+    stage_instability_map,
+    stage_stability_map,
+)
+from biplan.reproduction.settings import SWEEP_END, Settings
 from biplan.reproduction.validation import synthetic_band
 
 __all__ = ["EXPLORER_PAGES", "STAGES", "Stage", "StageContext", "run_map_python", "run_stages"]
@@ -100,51 +106,13 @@ class Stage:
     run: Callable[[StageContext], None]
 
 
-def _semi(ctx: StageContext) -> Any:
-    """The semi-bistable design under the run's TPC sign reading."""
-    import biplan
-    from biplan.options import TpcSign
-
-    options = biplan.ModelOptions(tpc_sign=TpcSign(ctx.settings.tpc_sign))
-    return biplan.designs.semi_bistable(options)
-
-
-def _linspace(spec: tuple[float, float, int]) -> list[float]:
-    return [float(x) for x in np.linspace(*spec)]
-
-
-def _logspace(spec: tuple[float, float, int]) -> list[float]:
-    return [float(x) for x in np.geomspace(*spec)]
-
-
-def _design_grid(s: Settings) -> Any:
-    """The (b, C) grid of the design and first-instability maps: b even, C log-spaced."""
-    from biplan.analysis.maps.sweeps import Grid
-
-    return Grid.of(b=_linspace(s.design_b), C=_logspace(s.design_c))
-
-
-def run_map_python(design: Any, grid: Any, evaluator: Any, out: Path, chunk_size: int) -> Any:
-    """Run one map through the sweep API and store it as ``out/map.nc`` (the one place that
-    calls the maps machinery)."""
-    from biplan.analysis.maps.sweeps import sweep
-    from biplan.io.config import dump_config
-    from biplan.io.sweepstore import save_map
-
-    ds = sweep(design, grid, evaluator, chunk_size=chunk_size)
-    ds.attrs["config"] = dump_config(design)
-    out.mkdir(parents=True, exist_ok=True)
-    save_map(ds, out / "map.nc")
-    return ds
-
-
 # --- stages ----------------------------------------------------------------------------------
 def _stage_semi(ctx: StageContext) -> None:
     import biplan
     from biplan.analysis.response.quasistatic import displacement_sweep
     from biplan.io.results import save_netcdf, save_sweep_csv, sweep_dataset
 
-    tube = _semi(ctx)
+    tube = semi_design(ctx)
     model = biplan.Model(tube)
     ref = biplan.relaxed_reference(model, throw=True)
     n = ctx.settings.sweep_steps
@@ -196,37 +164,6 @@ def _stage_validation(ctx: StageContext) -> None:
         synthetic=ctx.measured is None,
         source=source,
     )
-
-
-def _stage_design_map(ctx: StageContext) -> None:
-    from biplan.analysis.maps.design_map import ForceRamp, ResponseEvaluator
-
-    ev = ResponseEvaluator(ForceRamp(n_steps=ctx.settings.ramp_steps))
-    ds = run_map_python(_semi(ctx), _design_grid(ctx.settings), ev, ctx.out / "design_map", 4)
-    figures.design_map_figure(ds, ctx.out / "fig3_A1_design_maps.png")
-    ctx.results.design_map = ds
-
-
-def _stage_instability_map(ctx: StageContext) -> None:
-    from biplan.analysis.maps.instability_map import InstabilityEvaluator
-
-    ev = InstabilityEvaluator(up_to=INSTABILITY_UP_TO)
-    grid = _design_grid(ctx.settings)
-    ds = run_map_python(_semi(ctx), grid, ev, ctx.out / "instability_map", 4)
-    figures.instability_figure(ds, ctx.out / "fig3_A1_first_instability.png")
-    ctx.results.instability_map = ds
-
-
-def _stage_stability_map(ctx: StageContext) -> None:
-    from biplan.analysis.maps.stability_map import StabilityEvaluator
-    from biplan.analysis.maps.sweeps import Grid, apply_values
-
-    s = ctx.settings
-    tube = apply_values(_semi(ctx), {"b": PAPER_B})
-    grid = Grid.of(C=_logspace(s.stability_c), displacement=_linspace(s.stability_u))
-    ds = run_map_python(tube, grid, StabilityEvaluator(), ctx.out / "stability_map", grid.shape[1])
-    figures.stability_figure(ds, ctx.out / "fig3_A3_stability_map.png")
-    ctx.results.stability_map = ds
 
 
 def _stage_states(ctx: StageContext) -> None:
@@ -321,7 +258,7 @@ def _stage_movie(ctx: StageContext) -> None:
     from biplan.io.results import dataset, save_netcdf
     from biplan.plot.animation import animate
 
-    model = ctx.semi_model or biplan.Model(_semi(ctx))
+    model = ctx.semi_model or biplan.Model(semi_design(ctx))
     ref = biplan.relaxed_reference(model, throw=True)
     alpha = rayleigh_at(model, ref, biplan.Load.of_force(0.8), 0.05)
     scheme = biplan.GeneralizedAlpha(time_step=ctx.settings.time_step, rayleigh=alpha)
@@ -371,9 +308,9 @@ def _stage_explorer(ctx: StageContext) -> None:
 STAGES: dict[str, Stage] = {
     "semi": Stage("semi-bistable sweep and snapshots (Fig. 3 B)", _stage_semi),
     "validation": Stage("force–displacement vs band (Fig. 3 A.2)", _stage_validation),
-    "design_map": Stage("design map over (b, C) (Fig. 3 A.1)", _stage_design_map),
-    "instability_map": Stage("first-instability force over (b, C)", _stage_instability_map),
-    "stability_map": Stage("stability map at b = 0.58 (Fig. 3 A.3)", _stage_stability_map),
+    "design_map": Stage("design map over (b, C) (Fig. 3 A.1)", stage_design_map),
+    "instability_map": Stage("first-instability force over (b, C)", stage_instability_map),
+    "stability_map": Stage("stability map at b = 0.58 (Fig. 3 A.3)", stage_stability_map),
     "states": Stage("fully bistable states and transitions (Fig. 4)", _stage_states),
     "calibration": Stage("CFT calibration (SI)", _stage_calibration),
     "movie": Stage("force ramp and Movie S1", _stage_movie),
