@@ -1,7 +1,7 @@
 """A calibration from a directory of specimen files, as ``biplan calibrate`` runs it.
 
 * :func:`calibration_setup` — the specimen geometry and CSV format of a calibration config
-  (:func:`~biplan.calibration.files.read_calibration_config`; defaults R = 2 mm, one fold)
+  (:func:`~biplan.calibration.config.read_calibration_config`; defaults R = 2 mm, one fold)
   with overrides, and the fit options, checked before any file is read
   (:class:`CalibrationSetup`);
 * :func:`calibrate_directory` — every ``*.csv`` of a directory read as one specimen, then the
@@ -26,12 +26,8 @@ import numpy as np
 
 from biplan.calibration import calibrate
 from biplan.calibration.calibrate import Calibration, CalibrationOptions
-from biplan.calibration.files import (
-    SpecimenFormat,
-    read_calibration_config,
-    read_specimens,
-    with_overrides,
-)
+from biplan.calibration.config import read_calibration_config, with_overrides
+from biplan.calibration.files import SpecimenFormat, read_specimens
 from biplan.calibration.fits import CftGeometry
 from biplan.calibration.law_blocks import calibration_toml
 

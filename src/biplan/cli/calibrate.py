@@ -16,7 +16,7 @@ fitted to bistable data, a poor fit: :attr:`Calibration.caveats`) are printed as
 stderr, also with ``--quiet``, and written as ``# warning:`` comments into ``--out``.
 
 Options given on the command line override those of ``--config`` (schema:
-:func:`biplan.calibration.files.read_calibration_config`).
+:func:`biplan.calibration.config.read_calibration_config`).
 """
 
 from __future__ import annotations

@@ -117,7 +117,8 @@ def validate(
     import biplan
     from biplan.analysis.response.quasistatic import displacement_sweep
     from biplan.calibration.band import band_statistics
-    from biplan.calibration.files import SpecimenFormat, read_specimens, with_overrides
+    from biplan.calibration.config import with_overrides
+    from biplan.calibration.files import SpecimenFormat, read_specimens
     from biplan.calibration.validation import compare_to_band, write_comparison
 
     console = Console(highlight=False)

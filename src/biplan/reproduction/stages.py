@@ -31,8 +31,8 @@ the run goes on) and fills the :class:`~biplan.reproduction.facts.Results` field
   ``ramp.nc``, ``movie_S1.mp4`` (``.gif`` when ffmpeg is unavailable).
 
 The map stages live in :mod:`biplan.reproduction.map_stages`. The command adds the interactive
-pages of ``biplan explore`` as a last stage (:mod:`biplan.cli.reproduce`). Heavy modules (JAX, matplotlib) are imported by the stages
-themselves, so that importing this module stays cheap.
+pages of ``biplan explore`` as a last stage (:mod:`biplan.cli.reproduce`). Heavy modules (JAX,
+matplotlib) are imported by the stages themselves, so that importing this module stays cheap.
 """
 
 from __future__ import annotations
