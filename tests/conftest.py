@@ -32,6 +32,12 @@ os.environ.setdefault(
 # "Suite time"). Set before biplan is imported.
 os.environ.setdefault("BIPLAN_FAST_COMPILE", "on")
 
+# Without the trace store (biplan._compile.traced): exporting a JAX function to the store costs
+# more than tracing it again in the one process that uses it (test_sensitivity.py and
+# test_inverse_design.py on empty caches: 195 s with the store, 149 s without; AMD EPYC 2-core
+# machine). tests/test_trace_store.py turns it on for its own tests.
+os.environ.setdefault("BIPLAN_TRACE_STORE", "off")
+
 import numpy as np
 import pytest
 

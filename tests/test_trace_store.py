@@ -66,8 +66,9 @@ def test_a_stored_kernel_equals_jit_and_is_read_back(store, monkeypatch) -> None
     np.testing.assert_array_equal(again(params, x).value, reference.value)
     assert again._cache_size() == 1
     # another shape, another key: new entries
-    monkeypatch.undo()
+    monkeypatch.undo()  # (the store fixture's settings too: set them again)
     monkeypatch.setattr(_jax, "CACHE_DIR", store.parent)
+    monkeypatch.delenv("BIPLAN_TRACE_STORE", raising=False)
     stored_jit(_cubic, "cubic", key="k1")(params, x[:2])
     stored_jit(_cubic, "cubic", key="k2")(params, x)
     assert len(list(store.glob("cubic-*.kernel"))) == 3
