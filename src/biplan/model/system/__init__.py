@@ -2,9 +2,10 @@
 load, evaluated by compiled element kernels (Numba) with the tube's layout as data.
 
 The kernels (:mod:`.elements`, :mod:`.chainterm`, :mod:`.assemble`) compile once per install
-(``cache=True``: Numba's cache, next to the package when it is writable, else in the user's
-cache directory; nothing is written at import) and serve every tube: the number of modules,
-the connector kinds and the readings are arrays of :class:`~.tables.SystemData`. Their
+(:func:`biplan._compile.numba_cache.kernel`: Numba's cache in the user's cache directory,
+one specialisation per argument types; nothing is written at import) and serve every tube:
+the number of modules, the connector kinds and the readings are arrays of
+:class:`~.tables.SystemData`, which a :class:`System` holds writable and C-contiguous. Their
 derivatives are written by hand from the element energies and checked against the JAX
 autodiff oracle (:mod:`biplan.model.oracle`).
 """
