@@ -102,10 +102,9 @@ def _reference(kind: ModuleKind, mirror: MirrorConvention, l: float, h: float, h
 def kernel_data(data: SystemData) -> SystemData:
     """``data`` with every field writable and C-contiguous
     (:func:`biplan._compile.numba_cache.kernel_array`: one compiled signature per kernel)."""
-    fields = [kernel_array(a) for a in data]
-    if all(a is b for a, b in zip(fields, data, strict=True)):
-        return data
-    return SystemData(*fields)
+    if all(a.flags.writeable and a.flags.c_contiguous for a in data):
+        return data  # (the common case, e.g. every System.at: no copy, no np.require)
+    return SystemData(*(kernel_array(a) for a in data))
 
 
 def system_data(
