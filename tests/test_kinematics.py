@@ -462,3 +462,26 @@ def test_one_module_tube_layout():
     assert tube.module_kinds == (biplan.options.ModuleKind.STANDARD,)
     assert tube.layout.connectors[0].lower is None
     assert tube.layout.connectors[0].kind == "TPC"
+
+
+def test_numpy_geometry_equals_jax(model6, rng):
+    """The drawing helpers evaluate NumPy input in NumPy (no XLA kernel per operation) and
+    JAX input in JAX; both give the same nodes, wrapped points and spans."""
+    from biplan._compile.setup import jnp
+    from biplan.geometry import chain
+    from biplan.geometry.development import spans
+
+    kin = model6.kinematics(random_configuration(model6, rng))
+    kin_jax = chain.Kinematics(*(jnp.asarray(v) for v in kin))
+    nodes = chain.global_nodes(kin)
+    assert type(nodes) is np.ndarray
+    np.testing.assert_allclose(nodes, np.asarray(chain.global_nodes(kin_jax)), rtol=0, atol=1e-13)
+    wrapped = chain.wrap_to_cylinder(nodes, 2.0)
+    assert type(wrapped) is np.ndarray
+    np.testing.assert_allclose(
+        wrapped, np.asarray(chain.wrap_to_cylinder(jnp.asarray(nodes), 2.0)), rtol=0, atol=1e-13
+    )
+    got, ref = spans(2.0, 3.6, BETA), spans(jnp.asarray(2.0), 3.6, BETA)
+    assert all(isinstance(v, float | np.floating) for v in got)
+    np.testing.assert_allclose(got, [float(v) for v in ref], rtol=1e-15)
+    assert got[0] == pytest.approx(H) and got[1] == pytest.approx(H1)

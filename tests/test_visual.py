@@ -30,7 +30,7 @@ import biplan
 from _datasets import result_dataset, states_dataset
 from biplan.cli.main import EXIT_BIPLAN_ERROR, app, main
 from biplan.plot import cylinder, development, development_panels, force_displacement
-from biplan.plot.animation import animate, frame_indices
+from biplan.plot.animation import _frames, animate, frame_indices
 from biplan.plot.diagnostics import (
     energy_by_fold_set,
     measured_band,
@@ -290,6 +290,18 @@ def test_animation_writes_one_frame_per_saved_step(
         assert iio.imread(out, index=None).shape[0] == n_frames
     else:
         assert imageio_ffmpeg.count_frames_and_secs(str(out))[0] == n_frames
+
+
+def test_animation_frames_are_full_redraws(model6, path_ds) -> None:
+    """Each frame is drawn onto a background drawn once (only what moves is drawn again); its
+    pixels are those of drawing the whole figure anew."""
+    frames = frame_indices(path_ds.sizes["step"], 3)[:4]
+    n = 0
+    for image, canvas in _frames(path_ds, model6, frames, "elongation", None, 40.0, (20.0, -60.0)):
+        canvas.draw()
+        np.testing.assert_array_equal(image, np.asarray(canvas.buffer_rgba())[..., :3])
+        n += 1
+    assert n == len(frames) == 4
 
 
 def test_animation_skips_failed_steps(model6, path_ds, tmp_path) -> None:

@@ -179,6 +179,20 @@ jax: Any = _Lazy("jax")
 jnp: Any = _Lazy("jax.numpy")
 
 
+def array_module(*values: Any) -> Any:
+    """NumPy where every value is a NumPy array or a Python or NumPy number, else ``jnp``.
+
+    A geometry function written against it evaluates NumPy input (a figure's kinematics) in
+    NumPy, where ``jnp`` would compile one XLA kernel per operation and shape, and stays
+    traceable (JAX arrays, tracers).
+    """
+    import numpy as np
+
+    if all(isinstance(v, (np.ndarray, np.generic, float, int)) for v in values):
+        return np
+    return jnp
+
+
 def lazy_jit(**options: Any) -> Callable[[Callable[..., Any]], Callable[..., Any]]:
     """``functools.partial(jax.jit, **options)`` as a decorator that builds the jitted function
     on its first call, so that defining it does not import JAX."""
@@ -200,6 +214,7 @@ def lazy_jit(**options: Any) -> Callable[[Callable[..., Any]], Callable[..., Any
 __all__ = [
     "CACHE_DIR",
     "CHEAP_PIPELINE",
+    "array_module",
     "configure",
     "jax",
     "jnp",

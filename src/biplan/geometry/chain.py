@@ -24,7 +24,7 @@ from typing import Any, NamedTuple
 
 import numpy as np
 
-from biplan._compile.setup import jax, jnp
+from biplan._compile.setup import array_module, jax, jnp
 from biplan.geometry.connector import SPLIT_RANK
 from biplan.geometry.development import spans
 from biplan.geometry.layout import TubeLayout
@@ -316,8 +316,9 @@ def _frames(
 
 def global_nodes(kin: Kinematics) -> Array:
     """Deformed nodes in the global (z, s) plane, (N, 7, 2) [mm] (SI Eq. global_module_min)."""
-    hom = jnp.concatenate([kin.local_nodes, jnp.ones((*kin.local_nodes.shape[:2], 1))], axis=2)
-    return jnp.einsum("nij,nkj->nki", kin.frames, hom)[..., :2]
+    xp = array_module(kin.local_nodes, kin.frames)
+    hom = xp.concatenate([kin.local_nodes, xp.ones((*kin.local_nodes.shape[:2], 1))], axis=2)
+    return xp.einsum("nij,nkj->nki", kin.frames, hom)[..., :2]
 
 
 def end_edge_points(layout: TubeLayout, kin: Kinematics) -> Array:
@@ -382,5 +383,6 @@ def load_height(
 
 def wrap_to_cylinder(points: Array, radius: Array) -> Array:
     """(z, s) ↦ (x, y, z) = (R cos(s/R), R sin(s/R), z) for points (..., 2)."""
+    xp = array_module(points, radius)
     z, s = points[..., 0], points[..., 1]
-    return jnp.stack([radius * jnp.cos(s / radius), radius * jnp.sin(s / radius), z], axis=-1)
+    return xp.stack([radius * xp.cos(s / radius), radius * xp.sin(s / radius), z], axis=-1)

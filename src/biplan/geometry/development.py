@@ -15,17 +15,18 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass
 
-from biplan._compile.setup import jnp
+from biplan._compile.setup import array_module
 from biplan._errors import ConfigError, check_range
 
 __all__ = ["Development", "spans"]
 
 
 def spans(radius, pitch, helical_angle_rad):  # type: ignore[no-untyped-def]
-    """JAX-traceable (H, H1, H2, a) [mm] from R [mm], l [mm] and β [rad]."""
-    h = 2.0 * jnp.pi * radius
-    h2 = pitch * jnp.tan(helical_angle_rad)
-    return h, h - h2, h2, pitch / jnp.cos(helical_angle_rad)
+    """(H, H1, H2, a) [mm] from R [mm], l [mm] and β [rad]; JAX-traceable, NumPy for NumPy."""
+    xp = array_module(radius, pitch, helical_angle_rad)
+    h = 2.0 * xp.pi * radius
+    h2 = pitch * xp.tan(helical_angle_rad)
+    return h, h - h2, h2, pitch / xp.cos(helical_angle_rad)
 
 
 @dataclass(frozen=True)

@@ -24,6 +24,7 @@ step — inherent to the model, which enforces A ≡ G only (MODEL.md §10).
 
 from __future__ import annotations
 
+import functools
 from dataclasses import dataclass
 
 import numpy as np
@@ -96,6 +97,27 @@ def rigid_fit(reference: np.ndarray, deformed: np.ndarray) -> tuple[np.ndarray, 
     return rot, c1 - rot @ c0
 
 
+@functools.lru_cache(maxsize=4096)
+def _reference_cut(corners: bytes, n_corners: int, width: float) -> tuple[np.ndarray, np.ndarray]:
+    """The strips of one reference element polygon (``corners``, (k, 2) float64 bytes):
+    their distinct vertices (U, 2) [mm] and each strip's vertex rows (S, 6), padded with −1.
+
+    Cached: every frame of a time series cuts the same reference polygons.
+    """
+    strips = element_strips(np.frombuffer(corners).reshape(n_corners, 2), width)
+    flat = np.concatenate(strips)
+    key = np.round(flat / (1e-9 * width)).astype(np.int64)
+    _, first, inverse = np.unique(key, axis=0, return_index=True, return_inverse=True)
+    rows = np.full((len(strips), MAX_STRIP_VERTICES), -1)
+    starts = np.cumsum([0] + [len(strip) for strip in strips])
+    for j, strip in enumerate(strips):
+        rows[j, : len(strip)] = inverse.reshape(-1)[starts[j] : starts[j + 1]]
+    points = flat[first]
+    for array in (points, rows):
+        array.flags.writeable = False
+    return points, rows
+
+
 @dataclass(frozen=True)
 class Surface:
     """Facets of all rigid elements of a tube, in the development plane and on the cylinder.
@@ -150,7 +172,10 @@ class Surface:
 
     def wrapped_edges(self) -> list[np.ndarray]:
         """The element edges on the cylinder, one (k, 3) [mm] polyline each."""
-        return [np.asarray(chain.wrap_to_cylinder(e, self.radius)) for e in self.edges]
+        if not self.edges:
+            return []
+        wrapped = np.asarray(chain.wrap_to_cylinder(np.concatenate(self.edges), self.radius))
+        return np.split(wrapped, np.cumsum([len(e) for e in self.edges])[:-1])
 
 
 def surface(
@@ -202,20 +227,12 @@ def surface(
         for k, idx in enumerate(polygons):
             corners0, corners = ref[n, list(idx)], nodes[n, list(idx)]
             rot, shift = rigid_fit(corners0, corners)
-            strips = element_strips(corners0, width)
-            flat = np.concatenate(strips)
-            key = np.round(flat / (1e-9 * width)).astype(np.int64)
-            uniq, first, inverse = np.unique(key, axis=0, return_index=True, return_inverse=True)
-            plane.append(flat[first] @ rot.T + shift)
-            start = 0
-            for strip in strips:
-                row = np.full(MAX_STRIP_VERTICES, -1)
-                row[: len(strip)] = n_points + inverse.reshape(-1)[start : start + len(strip)]
-                start += len(strip)
-                facets.append(row)
-            n_points += len(uniq)
-            module += [n] * len(strips)
-            element += [k] * len(strips)
+            cut, rows = _reference_cut(corners0.tobytes(), len(idx), width)
+            plane.append(cut @ rot.T + shift)
+            facets.append(np.where(rows >= 0, rows + n_points, -1))
+            n_points += len(cut)
+            module += [n] * len(rows)
+            element += [k] * len(rows)
             for a, b in zip(idx, (*idx[1:], idx[0]), strict=True):
                 pieces = max(1, int(np.ceil(abs(ref[n, b, 1] - ref[n, a, 1]) / width - 1e-9)))
                 t = np.linspace(0.0, 1.0, pieces + 1)[:, None]
@@ -225,7 +242,7 @@ def surface(
     return Surface(
         points=np.asarray(chain.wrap_to_cylinder(points, radius)),
         plane=points,
-        facets=np.asarray(facets, dtype=np.int64),
+        facets=np.concatenate(facets).astype(np.int64),
         module=np.asarray(module, dtype=np.int64),
         element=np.asarray(element, dtype=np.int64),
         edges=tuple(edges),

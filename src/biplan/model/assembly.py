@@ -287,7 +287,7 @@ class Model:
 
     def global_nodes(self, q: Array) -> np.ndarray:
         """Deformed nodes in the global development plane, (N, 7, 2) [mm] (z, s)."""
-        return np.asarray(chain.global_nodes(self.autodiff.kinematics(self.params, self._q(q))))
+        return np.asarray(chain.global_nodes(self.kinematics(q)))
 
     def cylinder_nodes(self, q: Array) -> np.ndarray:
         """Deformed nodes wrapped onto the cylinder of radius R, (N, 7, 3) [mm] (x, y, z)."""
