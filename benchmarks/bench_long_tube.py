@@ -46,7 +46,7 @@ from biplan.io.config import load_config_text  # noqa: E402
 from biplan.model import system as system_module  # noqa: E402
 from biplan.model.params import Load  # noqa: E402
 from biplan.model.system import ordering  # noqa: E402
-from biplan.solvers import bordered, iteration  # noqa: E402
+from biplan.solvers import bordered, iteration, levenberg  # noqa: E402
 
 EXAMPLE = Path(__file__).resolve().parent.parent / "examples" / "long_tube_48.toml"
 NO_LAYOUT = np.zeros(0, dtype=np.int64)
@@ -96,18 +96,18 @@ def pieces(n: int) -> dict[str, float]:
         out["LM"] = best(lambda: bordered.lm_solve(jac, rhs, 1e-3, order, *band))
     else:
         out["LM"] = float("nan")
-    out["LM dense"] = best(lambda: iteration._lm_direction(jac, rhs, 1e-3))
+    out["LM dense"] = best(lambda: levenberg.lm_direction(jac, rhs, 1e-3))
     settings = iteration.newton_settings(
         method.atol, method.max_steps, method.max_backtracks, method.armijo, method.free_steps
     )
     for name, d in (("Newton", data), ("Newton dense", dense)):
-        _, _, _, _, steps, status = iteration.newton(
-            d, system.load, at_u.z, settings, iteration.NO_BORDER, 0.0, iteration.NO_STEP
+        _, _, _, _, steps, status = iteration.solve_system(
+            system_module.System(d, system.load), at_u.z, settings
         )
         assert status == 0, f"N = {n}: the sweep step did not converge ({name})"
         out[name] = best(
-            lambda d=d: iteration.newton(
-                d, system.load, at_u.z, settings, iteration.NO_BORDER, 0.0, iteration.NO_STEP
+            lambda d=d: iteration.solve_system(
+                system_module.System(d, system.load), at_u.z, settings
             )
         )
         out[name + " steps"] = float(steps)

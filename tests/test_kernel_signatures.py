@@ -93,7 +93,7 @@ _ONCE = (
     "biplan.model.system.assemble.evaluate",
     "biplan.model.system.assemble.residual",
     "biplan.model.system.assemble.jacobian",
-    "biplan.model.system.chainterm.endpoint",
+    "biplan.model.system.endpoint.endpoint",
     "biplan.model.system.chainterm.reference_height",
     "biplan.solvers.path_loop.path_loop",
     "biplan.solvers.step_loop.trajectory",

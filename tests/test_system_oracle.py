@@ -8,7 +8,7 @@ base fold), one module, the MINIMUM contact form, the printed TPC sign, the POIN
 connectors), a mirrored first module, the SEAM and SPLIT load points and per-fold laws; under
 force control, displacement control and at rest; at random states whose fields straddle the law
 breakpoints (non-zero multipliers), at solved states with active contacts, with the proximal
-bias. The element law integral :func:`biplan.model.system.elements.field_energy` is checked on
+bias. The element law integral :func:`biplan.model.system.fields.field_energy` is checked on
 its own (finite differences, JAX), and the Jacobian against finite differences of the compiled
 residual (independent of JAX).
 
@@ -29,7 +29,7 @@ from biplan.geometry import chain
 from biplan.laws import _jax as law_jax
 from biplan.model.params import Load
 from biplan.model.system import System
-from biplan.model.system.elements import field_energy
+from biplan.model.system.fields import field_energy
 from biplan.options import (
     ChainAttachment,
     ChainOffset,

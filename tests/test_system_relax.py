@@ -20,7 +20,7 @@ from biplan.analysis.states.labels import bistable_folds
 from biplan.analysis.states.search import state_bits
 from biplan.model import potential
 from biplan.model.elements import reduced as oracle
-from biplan.model.system import chainterm, reduced
+from biplan.model.system import chainterm, endpoint, reduced
 from biplan.options import ChainAttachment, ContactForm, TpcSign
 from biplan.solvers import iteration, lanes, relax_loop
 from biplan.solvers.fractions import phase_fractions
@@ -114,7 +114,7 @@ def test_edge_fit_endpoint_and_height_equal_the_jax_chain(model, rng) -> None:
     for _ in range(3):
         q = reduced.full_coordinates(d, _x(model, rng))[0]
         ref = model.endpoint(jnp.asarray(q))
-        np.testing.assert_allclose(chainterm.endpoint(d, q), tuple(ref), rtol=0, atol=1e-13)
+        np.testing.assert_allclose(endpoint.endpoint(d, q), tuple(ref), rtol=0, atol=1e-13)
         zp = chainterm.load_height(d, q) - d.load_reference[0]
         assert zp == pytest.approx(model.load_displacement(q), abs=1e-13)
         frac = potential.phase_fractions(model.layout, model.params, jnp.asarray(q))

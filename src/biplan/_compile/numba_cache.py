@@ -47,6 +47,7 @@ __all__ = [
     "BiplanLocator",
     "cache_dir",
     "fingerprint",
+    "inlined_kernel",
     "is_warm",
     "kernel",
     "kernel_array",
@@ -136,6 +137,13 @@ def kernel(func: Callable[..., Any] | None = None, **options: Any) -> Any:
         return dispatcher
 
     return declare if func is None else declare(func)
+
+
+#: The decorator of the small element kernels: compiled once per signature and inlined by LLVM
+#: into their callers (``forceinline``), with NumPy's error model (a division by zero gives ±inf
+#: or nan, as JAX does, instead of raising), so that an element costs no call and Numba prunes
+#: the reference counting of its arrays (:mod:`biplan.model.system.elements`).
+inlined_kernel = kernel(forceinline=True, error_model="numpy")
 
 
 def kernel_array(a: Any, dtype: Any = None) -> Any:

@@ -36,7 +36,8 @@ from biplan.model.system.assemble import evaluate
 from biplan.model.system.chainterm import load_point
 from biplan.model.system.inertia import add_inertia
 from biplan.model.system.tables import SystemData
-from biplan.solvers.bordered import _full_order, dense_solve, direction, fits, lm_solve
+from biplan.solvers.bordered import direction
+from biplan.solvers.levenberg import finite, levenberg_marquardt
 from biplan.solvers.status import Status
 
 __all__ = [
@@ -164,68 +165,6 @@ def system(
     jac[n - 1, n] = -load[2] * load[1]
     jac[n, :] = border
     return res, jac
-
-
-#: a⁻¹ b by dense LU; NaN where a is singular (the Levenberg–Marquardt direction's solve).
-_solve = dense_solve
-
-
-@kernel
-def _finite(x: np.ndarray) -> bool:
-    return bool(np.all(np.isfinite(x)))
-
-
-@kernel
-def _lm_step(jtj: np.ndarray, g: np.ndarray, damping: float) -> np.ndarray:
-    """Levenberg–Marquardt step (JᵀJ + ν diag(JᵀJ + 1e-12)) dz = g, g = −Jᵀr (0 where not
-    finite), from JᵀJ and g (:func:`_normal_equations`)."""
-    a = jtj.copy()
-    for i in range(a.shape[0]):
-        a[i, i] += damping * (jtj[i, i] + 1e-12)
-    step = _solve(a, g)
-    for i in range(step.shape[0]):
-        if not np.isfinite(step[i]):
-            step[i] = 0.0
-    return step
-
-
-@kernel
-def _normal_equations(jac: np.ndarray, r: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """(JᵀJ, −Jᵀr) of the Levenberg–Marquardt step."""
-    return jac.T @ jac, -(jac.T @ r)
-
-
-@kernel
-def _lm_direction(jac: np.ndarray, r: np.ndarray, damping: float) -> np.ndarray:
-    """Levenberg–Marquardt step (JᵀJ + ν diag(JᵀJ + 1e-12)) dz = −Jᵀr (0 where not finite)."""
-    jtj, g = _normal_equations(jac, r)
-    return _lm_step(jtj, g, damping)
-
-
-@kernel
-def _levenberg_marquardt(
-    d: SystemData,
-    jac: np.ndarray,
-    r: np.ndarray,
-    damping: float,
-    structured: bool,
-    jtj: np.ndarray,
-    g: np.ndarray,
-    kept: bool,
-) -> tuple:  # type: ignore[type-arg]
-    """(step, JᵀJ, −Jᵀr, kept): the Levenberg–Marquardt step of :func:`_lm_direction` at
-    (J, r), by the augmented system in the bordered banded solve where ``structured`` and the
-    layout fits (:func:`biplan.solvers.bordered.lm_solve`), else from the normal equations
-    (JᵀJ, −Jᵀr), formed once an iterate (``kept``: they are those of this J and r)."""
-    n = jac.shape[0]
-    order, band = d.solve_order, d.solve_band
-    if structured and fits(n, order, band):
-        step, ok = lm_solve(jac, r, damping, _full_order(order, n), band[0], band[1], band[2])
-        if ok and _finite(step):
-            return step, jtj, g, kept
-    if not kept:
-        jtj, g = _normal_equations(jac, r)
-    return _lm_step(jtj, g, damping), jtj, g, True
 
 
 @kernel(inline="always")
@@ -369,12 +308,12 @@ def solve(
             rj, jt = system(d, zt, load, border, rho, True, step)
             m = deflate(d, zt, rj, jt, deflation) if deflated else 1.0
             dz_n = direction(jt, -rt, d.solve_order, d.solve_band, structured)
-            newton_ok = _finite(dz_n)
+            newton_ok = finite(dz_n)
             lm_kept = False
             if newton_ok:
                 dz_a = dz_n
             elif with_lm:
-                dz_a, lm_jtj, lm_g, lm_kept = _levenberg_marquardt(
+                dz_a, lm_jtj, lm_g, lm_kept = levenberg_marquardt(
                     d, jt, rt, damping, structured, lm_jtj, lm_g, False
                 )
             else:  # a singular Newton system ends the plain damped Newton
@@ -397,7 +336,7 @@ def solve(
             elif to_lm and damping_r > 1e12:  # fails below: no step to compute
                 alpha = 1.0
             elif to_lm:
-                dz, lm_jtj, lm_g, lm_kept = _levenberg_marquardt(
+                dz, lm_jtj, lm_g, lm_kept = levenberg_marquardt(
                     d, jac, r, damping_r, structured, lm_jtj, lm_g, lm_kept
                 )
                 alpha = 1.0

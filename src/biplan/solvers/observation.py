@@ -41,7 +41,7 @@ from typing import Any, NamedTuple
 import numpy as np
 
 from biplan._compile.numba_cache import kernel, kernel_array
-from biplan.model.system import assemble, chainterm
+from biplan.model.system import assemble, chainterm, endpoint
 from biplan.model.system.tables import SystemData
 from biplan.solvers import lanes
 from biplan.solvers.fractions import branch_fractions
@@ -176,7 +176,7 @@ def _observation(
     active[n_g + n_c] = control
     lam_min, dof = min_reduced_eigenvalue(np.ascontiguousarray(jac[:n_q, :n_q]), a, active)
     # endpoint relative to q = 0
-    u_z, u_r, theta = chainterm.endpoint(d, q)
+    u_z, u_r, theta = endpoint.endpoint(d, q)
     # energies and branch fractions, helical folds then circular
     fold_energy = np.empty(n + nc)
     fold_energy[:n] = e_hel

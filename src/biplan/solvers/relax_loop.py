@@ -45,7 +45,8 @@ from biplan.model.system.reduced import (
     penalized_value,
 )
 from biplan.model.system.tables import SystemData
-from biplan.solvers.iteration import NewtonSettings, _solve, newton
+from biplan.solvers.bordered import dense_solve
+from biplan.solvers.iteration import NewtonSettings, newton
 
 __all__ = ["relax_rows", "relax_seed"]
 
@@ -107,7 +108,7 @@ def kinematic_seed(d: SystemData, target: np.ndarray, mask: np.ndarray) -> tuple
     damping = 1e-10 * np.eye(nx)
     for _ in range(SEED_ITERATIONS):
         r, jac = _seed_residual(d, x, target, mask)
-        step = _solve(jac.T @ jac + damping, -(jac.T @ r))
+        step = dense_solve(jac.T @ jac + damping, -(jac.T @ r))
         scale = min(1.0, SEED_MAX_STEP / (np.max(np.abs(step)) + 1e-300))
         new = x + scale * step
         ok = _finite(_seed_residual(d, new, target, mask)[0])
@@ -138,7 +139,7 @@ def descent(d: SystemData, x0: np.ndarray, stiffness: float, max_iterations: int
         a = h.copy()
         for i in range(nx):
             a[i, i] += shift
-        step = _solve(a, -gr)
+        step = dense_solve(a, -gr)
         step *= min(1.0, DESCENT_MAX_STEP / (np.max(np.abs(step)) + 1e-300))
         slope = gr @ step
         accepted = False
@@ -171,7 +172,7 @@ def polish_start(d: SystemData, x: np.ndarray, stiffness: float) -> np.ndarray:
         lam_c[i] = max(-stiffness * gaps[i], on_curve)
     t = _terms(d, q, np.zeros(n_g), lam_c, _SECOND)
     g_mat = t[4]
-    lam = -_solve(g_mat @ g_mat.T, g_mat @ t[0])
+    lam = -dense_solve(g_mat @ g_mat.T, g_mat @ t[0])
     z = np.zeros(n_q + n_g + n_c + 1)
     z[:n_q] = q
     z[n_q : n_q + n_g] = lam

@@ -1,10 +1,11 @@
 """One :class:`System` between the model and every iteration: the KKT system of a tube at a
 load, evaluated by compiled element kernels (Numba) with the tube's layout as data.
 
-The kernels (:mod:`.elements`, :mod:`.chainterm`, :mod:`.assemble`) compile once per install
-(:func:`biplan._compile.numba_cache.kernel`: Numba's cache in the user's cache directory,
-one specialisation per argument types; nothing is written at import) and serve every tube:
-the number of modules, the connector kinds and the readings are arrays of
+The kernels (:mod:`.elements`, :mod:`.fields`, :mod:`.chainterm`, :mod:`.endpoint`,
+:mod:`.assemble`) compile once per install (:func:`biplan._compile.numba_cache.kernel`:
+Numba's cache in the user's cache directory, one specialisation per argument types; nothing
+is written at import) and serve every tube: the number of modules, the connector kinds and
+the readings are arrays of
 :class:`~.tables.SystemData`, which a :class:`System` holds writable and C-contiguous. Their
 derivatives are written by hand from the element energies and checked against the JAX
 autodiff oracle (:mod:`biplan.model.oracle`).
@@ -22,6 +23,7 @@ from biplan._compile import numba_cache  # first: the kernels' cache locator
 from biplan._compile.numba_cache import kernel_array
 from biplan.geometry.layout import TubeLayout
 from biplan.model.system import assemble, chainterm, ordering
+from biplan.model.system import endpoint as free_end
 from biplan.model.system.tables import SystemData, kernel_data, system_data
 from biplan.model.tube import Tube
 
@@ -125,7 +127,7 @@ class System:
 
     def endpoint(self, q: np.ndarray) -> tuple[float, float, float]:
         """(u_z [mm], u_r [mm], θ [rad]) of the free end relative to q = 0 (MODEL R2)."""
-        u_z, u_r, theta = chainterm.endpoint(self.data, kernel_array(q, float))
+        u_z, u_r, theta = free_end.endpoint(self.data, kernel_array(q, float))
         return float(u_z), float(u_r), float(theta)
 
     def state(self, z: np.ndarray, jac: np.ndarray | None = None) -> Any:

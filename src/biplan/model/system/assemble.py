@@ -27,16 +27,10 @@ from typing import cast
 
 import numpy as np
 
-from biplan._compile.numba_cache import kernel
+from biplan._compile.numba_cache import inlined_kernel, kernel
 from biplan.model.system.chainterm import _gather, _load_point
-from biplan.model.system.elements import (
-    field_energy,
-    inlined_kernel,
-    law_of,
-    pivots,
-    points_into,
-    rows_into,
-)
+from biplan.model.system.elements import pivots, points_into, rows_into
+from biplan.model.system.fields import field_energy, law_of
 from biplan.model.system.tables import SystemData
 
 __all__ = ["evaluate", "jacobian", "observe", "residual", "terms"]
