@@ -100,9 +100,9 @@ def test_a_load_reaches_a_kernel_with_one_input_type(model1):
 
 
 def test_import_help_and_version_load_no_jax():
-    """``import biplan``, ``biplan --help``, ``biplan --version``, a Model and its compiled
-    system set no JAX state (JAX is not even imported); the set-up runs on first use of the
-    JAX kernels and extends XLA_FLAGS."""
+    """``import biplan``, ``biplan --help``, ``biplan --version``, a Model, its compiled
+    system and the figures of a tube set no JAX state (JAX is not even imported); the set-up
+    runs on first use of the JAX kernels and extends XLA_FLAGS."""
     code = (
         "import sys, biplan, biplan.cli.main\n"
         "assert 'jax' not in sys.modules, 'jax imported'\n"
@@ -117,6 +117,13 @@ def test_import_help_and_version_load_no_jax():
         "model = biplan.Model(biplan.designs.semi_bistable())\n"
         "model.system()\n"
         "assert 'jax' not in sys.modules, 'jax imported by the model or its system'\n"
+        "import matplotlib\n"
+        "matplotlib.use('agg')\n"
+        "from biplan.plot.cylinder import cylinder\n"
+        "from biplan.plot.tube import development\n"
+        "development(model, model.zeros() + 0.01)\n"
+        "cylinder(model, model.zeros() + 0.01)\n"
+        "assert 'jax' not in sys.modules, 'jax imported by the figures of a tube'\n"
         "from biplan._compile.setup import jnp\n"
         "assert jnp.ones(1).dtype == jnp.float64\n"
         "flags = os.environ['XLA_FLAGS']\n"

@@ -97,6 +97,10 @@ _ONCE = (
     "biplan.model.system.chainterm.reference_height",
     "biplan.solvers.path_loop.path_loop",
     "biplan.solvers.step_loop.trajectory",
+    # the kinematics of figures (biplan.model.system.kinematics), called from Python
+    "biplan.model.system.elements.module_rows",
+    "biplan.model.system.elements.connector_points",
+    "biplan.model.system.inertia_chain.terms",
 )
 
 

@@ -245,6 +245,22 @@ def test_layouts_are_supported_and_sized_as_the_model():
 
 
 @pytest.mark.parametrize("name", list(LAYOUTS))
+def test_kinematics_equal_the_jax_kinematics(name, rng):
+    """``Model.kinematics`` (the compiled system's, no JAX) equals the JAX chain kinematics:
+    nodes, guides, elongations, fields and frames under every reading, at random states."""
+    model = _model(name)
+    for amplitude in (0.05, 0.2):
+        q = random_configuration(model, rng, amplitude)
+        got = model.kinematics(q)
+        want = model.autodiff.kinematics(model.params, jnp.asarray(q))
+        for field in chain.Kinematics._fields:
+            g, w = np.asarray(getattr(got, field)), np.asarray(getattr(want, field))
+            assert g.shape == w.shape, (name, field)
+            np.testing.assert_allclose(g, w, rtol=0, atol=1e-12, err_msg=f"{name}: {field}")
+        assert type(got.frames) is np.ndarray
+
+
+@pytest.mark.parametrize("name", list(LAYOUTS))
 def test_residual_and_jacobian_equal_the_jax_model(name, rng):
     """Random states (fields straddling the breakpoints, non-zero multipliers) under force
     control, displacement control and at rest."""

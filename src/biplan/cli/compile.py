@@ -29,8 +29,9 @@ __all__ = ["FIRST", "WORKLOADS", "WorkloadTime", "compile_all", "compile_kernels
 
 
 def _equilibrium() -> None:
-    """The one Newton (force and displacement control) and the System of two designs, and
-    the System of a tube long enough for the banded solve (its Jacobian pattern)."""
+    """The one Newton (force and displacement control), the System and the kinematics of
+    figures of two designs, and the System of a tube long enough for the banded solve (its
+    Jacobian pattern)."""
     from biplan import Load, Model, Newton, designs, relaxed_reference, solve_equilibrium
 
     for tube in (designs.semi_bistable(), designs.fully_bistable()):
@@ -38,6 +39,7 @@ def _equilibrium() -> None:
         ref = relaxed_reference(model)
         solve_equilibrium(model, Newton(), ref, Load.of_displacement(0.5))
         solve_equilibrium(model, Newton(), ref, Load.of_force(0.5))
+        model.kinematics(ref.q)  # what figures draw
     Model(designs.fully_bistable(n_modules=12)).system()
 
 

@@ -24,6 +24,7 @@ from biplan.geometry import chain
 from biplan.geometry.layout import TubeLayout
 from biplan.model.params import Load, ModelParams, StateData, sizes
 from biplan.model.system import System
+from biplan.model.system.kinematics import kinematics as system_kinematics
 from biplan.model.tube import Tube
 from biplan.options import ModelOptions
 
@@ -268,9 +269,10 @@ class Model:
         return np.asarray(self.autodiff.load_gradient(self.params, self._q(q)))
 
     def kinematics(self, q: Array) -> chain.Kinematics:
-        """All kinematic quantities at q (NumPy arrays): nodes, guides, elongations, frames."""
-        kin = self.autodiff.kinematics(self.params, self._q(q))
-        return chain.Kinematics(*(np.asarray(v) for v in kin))
+        """All kinematic quantities at q (NumPy arrays): nodes, guides, elongations, frames;
+        evaluated on the compiled system (:func:`biplan.model.system.kinematics.kinematics`,
+        no JAX; equal to the JAX :func:`biplan.geometry.chain.kinematics` to 1e-12)."""
+        return system_kinematics(self.system().data, np.asarray(q, dtype=float))
 
     def helical_boundary(self, q: Array) -> np.ndarray:
         """(w0, wa) [mm] of each helical fold, (N, 2)."""
