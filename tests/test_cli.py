@@ -187,6 +187,7 @@ def test_compile_workloads_run_and_report_failures(monkeypatch: pytest.MonkeyPat
     from biplan.cli import compile as compile_cmd
 
     assert compile_cmd.FIRST in compile_cmd.WORKLOADS
+    assert compile_cmd.BESIDE_FIRST in compile_cmd.WORKLOADS
     done = compile_cmd._run("path")
     assert done.name == "path" and done.error is None and done.seconds > 0.0
 

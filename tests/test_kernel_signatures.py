@@ -97,6 +97,8 @@ _ONCE = (
     "biplan.model.system.chainterm.reference_height",
     "biplan.solvers.path_loop.path_loop",
     "biplan.solvers.step_loop.trajectory",
+    # compiled beside the first workload from Python, called by the one Newton
+    "biplan.model.system.inertia.add_inertia",
     # the kinematics of figures (biplan.model.system.kinematics), called from Python
     "biplan.model.system.elements.module_rows",
     "biplan.model.system.elements.connector_points",
@@ -107,7 +109,7 @@ _ONCE = (
 @pytest.fixture(scope="module")
 def kernels() -> dict[str, dict]:  # type: ignore[type-arg]
     proc = subprocess.run(
-        [sys.executable, "-c", _AUDIT, "equilibrium", "path", "dynamics"],
+        [sys.executable, "-c", _AUDIT, "inertia", "equilibrium", "path", "dynamics"],
         capture_output=True,
         text=True,
         check=False,
