@@ -133,11 +133,11 @@ def _run(name: str) -> WorkloadTime:
     """Run one workload in this (worker) process, as biplan's own processes compile."""
     from biplan._compile.numba_cache import use_own_opt_level
     from biplan._compile.setup import limit_blas_threads
-    from biplan.model import system
+    from biplan.model.system import quiet_compile_notice
 
     limit_blas_threads()
     use_own_opt_level()
-    system._ANNOUNCED.append(True)  # the command says that it compiles, not each workload
+    quiet_compile_notice()  # the command says that it compiles, not each workload
     start = time.perf_counter()
     try:
         WORKLOADS[name]()

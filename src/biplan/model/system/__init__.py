@@ -27,7 +27,7 @@ from biplan.model.system import endpoint as free_end
 from biplan.model.system.tables import SystemData, kernel_data, system_data
 from biplan.model.tube import Tube
 
-__all__ = ["System", "SystemData", "system_data"]
+__all__ = ["System", "SystemData", "quiet_compile_notice", "system_data"]
 
 
 @dataclass(frozen=True)
@@ -165,6 +165,12 @@ def _solve_layout(layout: TubeLayout, data: SystemData) -> tuple[np.ndarray, np.
     if found is None:
         found = _LAYOUTS[layout] = ordering.solve_layout(data)
     return found
+
+
+def quiet_compile_notice() -> None:
+    """No one-time compile notice in this process (:func:`_announce_compile`): for a caller
+    that says itself that the kernels compile (``biplan compile``'s workloads)."""
+    _ANNOUNCED.append(True)
 
 
 def _announce_compile() -> None:
