@@ -90,9 +90,8 @@ print(json.dumps(out))
 #: Entry points called from Python, each with the whole assembly below it: one each.
 _ONCE = (
     "biplan.solvers.iteration.solve",
-    "biplan.model.system.assemble.evaluate",
+    "biplan.model.system.assemble.evaluate_into",
     "biplan.model.system.assemble.residual",
-    "biplan.model.system.assemble.jacobian",
     "biplan.model.system.endpoint.endpoint",
     "biplan.model.system.chainterm.reference_height",
     "biplan.solvers.path_loop.path_loop",

@@ -201,10 +201,10 @@ def banded_solve(
             ab[j, kl + ku + i - j] = a[order[i], col]
     # right-hand sides (k + 1, m): the border columns E = J[I, K], then b_I
     rhs = np.empty((k + 1, m))
-    for c in range(k):
-        col = order[m + c]
-        for i in range(m):
-            rhs[c, i] = a[order[i], col]
+    for i in range(m):  # by the rows of a: a column of a strides over its rows
+        row = order[i]
+        for c in range(k):
+            rhs[c, i] = a[row, order[m + c]]
     for i in range(m):
         rhs[k, i] = b[order[i]]
     if not _factor_solve(ab, kl, ku, rhs):

@@ -243,9 +243,10 @@ def _initial_acceleration(
     q0 = np.asarray(z0[:n_q], dtype=float)
     z = np.concatenate([q0, np.zeros(n_g + n_c + 1)])
     at = np.array([float(load.force), float(load.displacement), float(load.displacement_control)])
-    r, _, _, _, terms = assemble.evaluate(d, z, at, True)
+    r, jac, _, _, terms = assemble.evaluate_into(d, z, at, True, np.zeros((z.size, z.size)))
     m = system_inertia.mass_matrix(d, q0, surface_density)
-    gaps, g_mat, c_mat = terms[3], terms[4], terms[5]
+    c0 = n_q + n_g  # ∂g/∂q and ∂w_∂/∂q from the Jacobian's blocks (as System.state)
+    gaps, g_mat, c_mat = terms[3], jac[n_q:c0, :n_q], -jac[:n_q, c0 : c0 + n_c].T
     a = np.concatenate([g_mat, c_mat[gaps < 1e-8]])
     if load.is_displacement_controlled:
         grad = np.zeros(n_q)

@@ -32,7 +32,7 @@ from typing import Any, NamedTuple
 import numpy as np
 
 from biplan._compile.numba_cache import kernel, kernel_array
-from biplan.model.system.assemble import evaluate
+from biplan.model.system.assemble import evaluate_into
 from biplan.model.system.chainterm import load_point
 from biplan.model.system.inertia import add_inertia
 from biplan.model.system.tables import SystemData
@@ -132,39 +132,55 @@ def system(
     rho: float,
     second: bool,
     step: np.ndarray,
+    jac: np.ndarray,
 ) -> tuple[np.ndarray, np.ndarray]:
     """(R(x), ∂R/∂x or (0, 0)): the KKT system at ``load`` when ``border`` is empty, else the
     bordered system with ``load`` the control coefficients (c_F, c_U, d) and ``border`` the
-    row (row_z, row_Λ) (module docstring).
+    row (row_z, row_Λ) (module docstring). ∂R/∂x is written into ``jac``, zeros of (n, n)
+    for the n unknowns x where ``second``, (0, 0) where not.
 
     Inlined into :func:`solve`, its only caller: compiled on its own it would optimise the
     assembly below it once more (docs/performance.md, "One-time compile")."""
     if border.shape[0] == 0:
-        out = evaluate(d, x, load, second)
+        out = evaluate_into(d, x, load, second, jac)
         if step.shape[0]:  # the inertia rows of a time step (solvers.step_loop)
             add_inertia(d, x[: d.sizes[0]], step, out[0], out[1], second)
         return out[0], out[1]
     n = x.shape[0] - 1
     lam = x[n]
     at = np.array([load[0] * lam, load[1] * lam, load[2]])
-    out = evaluate(d, x[:n], at, second)
+    out = evaluate_into(d, x[:n], at, second, jac)  # its leading n × n block
     res = np.empty(n + 1)
     res[:n] = out[0]
     res[n] = border[:n] @ x[:n] + border[n] * lam - rho
     if not second:
-        return res, np.zeros((0, 0))
+        return res, jac
     n_q = d.sizes[0]
     grad_zp = out[3]
     if at[0] == 0.0 and at[2] == 0.0 and load[0] != 0.0:  # at rest evaluate skips z_p
         grad_zp = np.zeros(n_q)
         load_point(d, x[:n_q], grad_zp, np.zeros((0, 0)), 0.0, False)
-    jac = np.zeros((n + 1, n + 1))
-    jac[:n, :n] = out[1]
     for i in range(n_q):
         jac[i, n] = -load[0] * grad_zp[i]
     jac[n - 1, n] = -load[2] * load[1]
     jac[n, :] = border
     return res, jac
+
+
+@kernel(inline="always")
+def _zeroed(pool: tuple, k: int, n: int) -> tuple:  # type: ignore[type-arg]
+    """The pool of :func:`solve`'s Jacobians with its array k zeroed to (n, n), allocated
+    when first used (the arrays of the others stay as they are)."""
+    a = pool[k]
+    if a.shape[0] != n:
+        a = np.zeros((n, n))
+    else:
+        a[:, :] = 0.0
+    if k == 0:
+        return (a, pool[1], pool[2])
+    if k == 1:
+        return (pool[0], a, pool[2])
+    return (pool[0], pool[1], a)
 
 
 @kernel(inline="always")
@@ -277,6 +293,12 @@ def solve(
     # system (M R ∇ηᵀ fills the q columns) and a time step's inertia rows
     structured = not deflated and step.shape[0] == 0
     no_jacobian = np.zeros((0, 0))  # (a global array would be read-only)
+    # The Jacobians are written into a pool of three arrays, reused: the current iterate's
+    # (jac), the watchdog's best (best_jac) and a trial's; ``cur`` and ``best`` are the
+    # arrays of the first two (−1: not in the pool). A fresh n × n array a Jacobian cost more
+    # than the rest of a Newton step at N = 400 (docs/performance.md).
+    pool = (no_jacobian, no_jacobian, no_jacobian)
+    cur, best = -1, -1
     alpha_min = 0.5**max_bt
     max_evals = max(max_steps, 1) * (max_bt + 1)
     n = z0.shape[0]
@@ -293,7 +315,7 @@ def solve(
     lm_jtj, lm_g, lm_kept = np.zeros((0, 0)), np.zeros(0), False
     while status < 0 and evals < max_evals:
         zt = z + alpha * dz
-        rt = system(d, zt, load, border, rho, False, step)[0]
+        rt = system(d, zt, load, border, rho, False, step, no_jacobian)[0]
         if deflated:
             deflate(d, zt, rt, no_jacobian, deflation)
         ft = 0.5 * (rt @ rt)
@@ -305,7 +327,11 @@ def solve(
         damping_r = damping * 10.0 if lm else damping
         was_finite = np.isfinite(f)
         if accept:
-            rj, jt = system(d, zt, load, border, rho, True, step)
+            k = 0
+            while k in (cur, best):
+                k += 1
+            pool = _zeroed(pool, k, n)
+            rj, jt = system(d, zt, load, border, rho, True, step, pool[k])
             m = deflate(d, zt, rj, jt, deflation) if deflated else 1.0
             dz_n = direction(jt, -rt, d.solve_order, d.solve_band, structured)
             newton_ok = finite(dz_n)
@@ -320,6 +346,7 @@ def solve(
                 dz_a = dz_n
                 status = _FAILED
             z, r, f, jac, dz = zt, rt, ft, jt, dz_a
+            cur = k
             slope = float(rt @ (jt @ dz_a))
             alpha, lm, damping = 1.0, not newton_ok, max(damping * 0.3, 1e-9)
             if was_finite:
@@ -358,8 +385,10 @@ def solve(
             free -= 1
         if accept and f < best_f:
             best_z, best_r, best_f, best_jac, best_dz, best_lm = z, r, f, jac, dz, lm
+            best = cur
         if used and free == 0 and status != _CONVERGED and best_f < f:
             z, r, f, jac, dz, lm = best_z, best_r, best_f, best_jac, best_dz, best_lm
+            cur = best
             lm_kept = False
             slope, alpha = float(r @ (jac @ dz)), 1.0
     if status < 0:

@@ -118,11 +118,14 @@ class System:
 
     def jacobian(self, z: np.ndarray) -> np.ndarray:
         """∂r/∂z (n_z, n_z)."""
-        return assemble.jacobian(self.data, kernel_array(z, float), self.load)
+        return self.evaluate(z)[1]
 
     def evaluate(self, z: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        """(r, ∂r/∂z) at z in one pass."""
-        out = assemble.evaluate(self.data, kernel_array(z, float), self.load, True)
+        """(r, ∂r/∂z) at z in one pass (∂r/∂z written into NumPy's zeros: only the pages of
+        its non-zero entries are touched, :func:`.assemble.evaluate_into`)."""
+        z = kernel_array(z, float)
+        jac = np.zeros((z.shape[0], z.shape[0]))
+        out = assemble.evaluate_into(self.data, z, self.load, True, jac)
         return out[0], out[1]
 
     def endpoint(self, q: np.ndarray) -> tuple[float, float, float]:

@@ -7,8 +7,10 @@ One Lagrangian, as :mod:`biplan.model.lagrangian` states it::
     r = [∇_q L,  g,  φ_ε(w_∂ + c λ_∂, λ_∂),  d (z_p − U) + (1 − d) μ]
 
 :func:`terms` evaluates every module and connector element (and the chain term when the load
-needs it) and adds their blocks into the global arrays; :func:`residual`, :func:`jacobian` and
-:func:`evaluate` build r and ∂r/∂z from them. ``load`` is the array (F [N], U [mm], d ∈ {0, 1}).
+needs it) and adds their blocks into the global arrays; :func:`residual` and :func:`evaluate`
+(:func:`evaluate_into`) build r and ∂r/∂z from them, the element blocks added into ∂r/∂z in
+place (its non-zero entries only: no n_q × n_q array of their own, which at N = 400 cost more
+than the rest of a Newton step). ``load`` is the array (F [N], U [mm], d ∈ {0, 1}).
 
 Numba compiles a function once per argument types, and a literal ``True``/``False`` written at
 a call site is a type of its own: :func:`evaluate`, :func:`terms` and :func:`.chainterm.load_point`
@@ -33,7 +35,7 @@ from biplan.model.system.elements import pivots, points_into, rows_into
 from biplan.model.system.fields import field_energy, law_of
 from biplan.model.system.tables import SystemData
 
-__all__ = ["evaluate", "jacobian", "observe", "residual", "terms"]
+__all__ = ["evaluate", "evaluate_into", "observe", "residual", "terms"]
 
 #: ``second`` = False, True as run-time values (NumPy booleans: not literals, module docstring)
 _FIRST, _SECOND = cast(bool, np.False_), cast(bool, np.True_)
@@ -81,12 +83,15 @@ def _modules(
     gaps: np.ndarray,
     g_mat: np.ndarray,
     c_mat: np.ndarray,
+    g_row: int,
+    c_row: int,
     e_hel: np.ndarray,
     vals: np.ndarray,
     work: np.ndarray,
 ) -> None:
     """Adds the module elements (helical fields, guides and helical boundary rows) into the
-    arrays of :func:`terms` (scratch: ``vals`` (4,), ``work`` (12, 3))."""
+    arrays of :func:`terms` (∂g/∂q and ∂w_∂/∂q from the rows ``g_row`` of ``g_mat`` and
+    ``c_row`` of ``c_mat`` on; scratch: ``vals`` (4,), ``work`` (12, 3))."""
     a_len = d.scalars[2]
     gr, hd, lh, lg = work[0:4], work[4:8], work[8:11], work[11]  # rows' ∇, ∇² diag; local
     for i in range(d.ref.shape[0]):
@@ -111,8 +116,8 @@ def _modules(
                 for j in range(3):
                     hess[3 * i + k, 3 * i + j] += lh[k, j]
                 for r in range(2):
-                    g_mat[2 * i + r, 3 * i + k] = gr[r, k]
-                    c_mat[2 * i + r, 3 * i + k] = gr[2 + r, k]
+                    g_mat[g_row + 2 * i + r, 3 * i + k] = gr[r, k]
+                    c_mat[c_row + 2 * i + r, 3 * i + k] = gr[2 + r, k]
 
 
 @inlined_kernel
@@ -125,6 +130,7 @@ def _connectors(
     hess: np.ndarray,
     gaps: np.ndarray,
     c_mat: np.ndarray,
+    c_row: int,
     e_circ: np.ndarray,
     w: np.ndarray,
     pts: np.ndarray,
@@ -132,9 +138,9 @@ def _connectors(
     soft: np.ndarray,
 ) -> None:
     """Adds the connector elements (circular fields and contact rows) into the arrays of
-    :func:`terms` (scratch: ``w`` (K,) and ``pts`` (2, K, 7) for w, ∂w/∂x_c and diag
-    ∂²w/∂x_c² at every connector point, ``local`` (10, 7), ``soft`` (n_cc,) for the
-    smooth-minimum weights)."""
+    :func:`terms` (∂w_∂/∂q from the row ``c_row`` of ``c_mat`` on; scratch: ``w`` (K,) and
+    ``pts`` (2, K, 7) for w, ∂w/∂x_c and diag ∂²w/∂x_c² at every connector point, ``local``
+    (10, 7), ``soft`` (n_cc,) for the smooth-minimum weights)."""
     n, nc = d.ref.shape[0], d.conn_upper.shape[0]
     pitch, tau = d.scalars[0], d.scalars[5]
     minimum = d.flags[0] == 1
@@ -193,7 +199,7 @@ def _connectors(
                         ch[i, j] -= lam_c[row] / tau * gg[i] * gg[j]
                 for k in range(7):
                     if dofs[c, k] >= 0:
-                        c_mat[row, dofs[c, k]] += gg[k]
+                        c_mat[c_row + row, dofs[c, k]] += gg[k]
         else:
             for r in range(c0, c1):
                 row = 2 * n + r
@@ -204,7 +210,7 @@ def _connectors(
                     if second:
                         ch[k, k] -= lam_c[row] * hw[p, k]
                         if dofs[c, k] >= 0:
-                            c_mat[row, dofs[c, k]] += gw[p, k]
+                            c_mat[c_row + row, dofs[c, k]] += gw[p, k]
         for i in range(7):
             if dofs[c, i] < 0:
                 continue
@@ -241,24 +247,41 @@ def _terms(
     """:func:`terms`."""
     n_q, n_g, n_c = d.sizes[0], d.sizes[1], d.sizes[2]
     m = n_q if second else 0
-    out = (
-        np.zeros(n_q),
-        np.zeros((m, m)),
-        np.zeros(n_g),
-        np.zeros(n_c),
-        np.zeros((n_g if second else 0, m)),
-        np.zeros((n_c if second else 0, m)),
-        np.zeros(d.ref.shape[0]),
-        np.zeros(d.conn_upper.shape[0]),
-    )
-    grad, hess, guides, gaps, g_mat, c_mat, e_hel, e_circ = out
+    hess = np.zeros((m, m))
+    g_mat, c_mat = np.zeros((n_g if second else 0, m)), np.zeros((n_c if second else 0, m))
+    grad, guides, gaps, e_hel, e_circ = _fill(d, q, lam, lam_c, second, hess, g_mat, c_mat, 0, 0)
+    return grad, hess, guides, gaps, g_mat, c_mat, e_hel, e_circ
+
+
+@kernel
+def _fill(
+    d: SystemData,
+    q: np.ndarray,
+    lam: np.ndarray,
+    lam_c: np.ndarray,
+    second: bool,
+    hess: np.ndarray,
+    g_mat: np.ndarray,
+    c_mat: np.ndarray,
+    g_row: int,
+    c_row: int,
+) -> tuple:
+    """The first-order arrays of :func:`terms` (∇_q, g, w_∂, helical and circular energies);
+    where ``second``, adds the Hessian into ``hess`` and writes ∂g/∂q and ∂w_∂/∂q into the
+    rows of ``g_mat`` from ``g_row`` on and of ``c_mat`` from ``c_row`` on (separate arrays
+    for :func:`terms`, the KKT Jacobian itself for :func:`evaluate`)."""
+    grad, guides, gaps = np.zeros(d.sizes[0]), np.zeros(d.sizes[1]), np.zeros(d.sizes[2])
+    e_hel, e_circ = np.zeros(d.ref.shape[0]), np.zeros(d.conn_upper.shape[0])
     vals, work = np.empty(4), np.empty((12, 3))
-    _modules(d, q, lam, lam_c, second, grad, hess, guides, gaps, g_mat, c_mat, e_hel, vals, work)
+    _modules(
+        d, q, lam, lam_c, second, grad, hess, guides, gaps, g_mat, c_mat, g_row, c_row, e_hel,
+        vals, work,
+    )  # fmt: skip
     n_pts = d.point_s.shape[0]
     w, pts, local = np.empty(n_pts), np.empty((2, n_pts, 7)), np.empty((10, 7))
     soft = np.empty(d.contact_point.shape[0])
-    _connectors(d, q, lam_c, second, grad, hess, gaps, c_mat, e_circ, w, pts, local, soft)
-    return out
+    _connectors(d, q, lam_c, second, grad, hess, gaps, c_mat, c_row, e_circ, w, pts, local, soft)
+    return grad, guides, gaps, e_hel, e_circ
 
 
 @kernel(inline="always")
@@ -269,8 +292,28 @@ def evaluate(
     second: bool,
 ) -> tuple:
     """(r (n_z,), ∂r/∂z (n_z, n_z) or (0, 0), z_p [mm], ∇z_p (n_q,), element terms) at z
-    for load = (F, U, d) (module docstring)."""
-    return _evaluate(d, z, load, bool(second))  # a run-time flag: one compilation
+    for load = (F, U, d) (module docstring). The element terms are those of :func:`terms`
+    but for the second-order arrays (its Hessian, ∂g/∂q and ∂w_∂/∂q: (0, 0) here; they are
+    the blocks of ∂r/∂z)."""
+    n = z.shape[0] if second else 0
+    return _evaluate(d, z, load, bool(second), np.zeros((n, n)))  # a run-time flag
+
+
+@kernel(inline="always")
+def evaluate_into(
+    d: SystemData,
+    z: np.ndarray,
+    load: np.ndarray,
+    second: bool,
+    jac: np.ndarray,
+) -> tuple:
+    """:func:`evaluate` with ∂r/∂z written into ``jac``: zeros (m, m), m ≥ n_z, where
+    ``second`` (∂r/∂z its leading n_z × n_z block, nothing written outside it), (0, 0) where
+    not. A Newton reuses its arrays (:func:`biplan.solvers.iteration.solve`), and Python
+    passes NumPy's zeros, whose pages the system allocates as the entries are written: at
+    N = 400 allocating and zeroing the 4201² array in compiled code cost more than the rest
+    of a Newton step."""
+    return _evaluate(d, z, load, bool(second), jac)
 
 
 @kernel
@@ -279,67 +322,74 @@ def _evaluate(
     z: np.ndarray,
     load: np.ndarray,
     second: bool,
+    jac: np.ndarray,
 ) -> tuple:
-    """:func:`evaluate`."""
+    """:func:`evaluate_into`. The elements add their Hessian blocks and write ∂g/∂q and ∂w_∂/∂q
+    into the Jacobian itself (:func:`_fill`): the Jacobian is the one n_z × n_z array, and
+    only its non-zero entries are written (the terms it returns carry no second-order
+    arrays)."""
     n_q, n_g, n_c = d.sizes[0], d.sizes[1], d.sizes[2]
     n_z = n_q + n_g + n_c + 1
+    c0 = n_q + n_g  # the first contact row
     q = z[:n_q]
-    lam = z[n_q : n_q + n_g]
-    lam_c = z[n_q + n_g : n_q + n_g + n_c]
+    lam = z[n_q:c0]
+    lam_c = z[c0 : c0 + n_c]
     mu = z[n_z - 1]
     force, disp, ctrl = load[0], load[1], load[2]
     eps, comp, kappa = d.scalars[3], d.scalars[4], d.bias_stiffness[0]
-    t = _terms(d, q, lam, lam_c, second)
-    grad, hess, gaps = t[0], t[1], t[3]
+    grad, guides, gaps, e_hel, e_circ = _fill(d, q, lam, lam_c, second, jac, jac, jac, n_q, c0)
+    none = np.zeros((0, 0))
+    t = (grad, none, guides, gaps, none, none, e_hel, e_circ)
     coef = mu * ctrl - force
     a = np.zeros(n_q)
     zp = 0.0
     if force != 0.0 or ctrl != 0.0:  # at rest the load point's terms vanish
-        zp = _load_point(d, q, a, hess, coef, second) - d.load_reference[0]
+        zp = _load_point(d, q, a, jac, coef, second) - d.load_reference[0]
     r = np.empty(n_z)
     for i in range(n_q):
         r[i] = grad[i] + coef * a[i] + kappa * (q[i] - d.bias_anchor[i])
-    r[n_q : n_q + n_g] = t[2]
+    r[n_q:c0] = guides
     for i in range(n_c):  # φ_ε(w + c λ_∂, λ_∂)
         w = gaps[i] + comp * lam_c[i]
-        r[n_q + n_g + i] = math.sqrt(w * w + lam_c[i] * lam_c[i] + eps * eps) - (w + lam_c[i])
+        r[c0 + i] = math.sqrt(w * w + lam_c[i] * lam_c[i] + eps * eps) - (w + lam_c[i])
     r[n_z - 1] = ctrl * (zp - disp) + (1.0 - ctrl) * mu
     if not second:
-        return r, np.zeros((0, 0)), zp, a, t
-    jac = np.zeros((n_z, n_z))
+        return r, jac, zp, a, t
     for i in range(n_q):
-        jac[i, :n_q] = hess[i]
         jac[i, i] += kappa
         jac[i, n_z - 1] = ctrl * a[i]
         jac[n_z - 1, i] = ctrl * a[i]
-    # the constraint blocks and their transposes, entry by entry over each row's coordinates
-    # (3 of a module, 7 of a connector): ∂g/∂q and ∂w_∂/∂q are that sparse
-    g_mat, c_mat = t[4], t[5]
-    c0 = n_q + n_g  # the first contact row
     dphi = np.empty(n_c)  # ∂φ/∂w of each contact row
     for i in range(n_c):
         w = gaps[i] + comp * lam_c[i]
         rho = math.sqrt(w * w + lam_c[i] * lam_c[i] + eps * eps)
         dphi[i] = w / rho - 1.0
         jac[c0 + i, c0 + i] = comp * dphi[i] + lam_c[i] / rho - 1.0
+    # the constraint rows hold ∂g/∂q and ∂w_∂/∂q (_fill): the transposes, and the contact
+    # rows scaled by ∂φ/∂w, entry by entry over each row's coordinates (3 of a module, 7 of a
+    # connector)
     for i in range(n_g):  # module i // 2: its guide row i and helical boundary row i (n_g = 2N)
         for k in range(3):
             j = 3 * (i // 2) + k
-            jac[n_q + i, j] = g_mat[i, j]
-            jac[j, n_q + i] = g_mat[i, j]
-            jac[c0 + i, j] = dphi[i] * c_mat[i, j]
-            jac[j, c0 + i] = -c_mat[i, j]
+            jac[j, n_q + i] = jac[n_q + i, j]
+            raw = jac[c0 + i, j]
+            jac[c0 + i, j] = dphi[i] * raw
+            jac[j, c0 + i] = -raw
     minimum = d.flags[0] == 1
+    raws = np.empty(7)
     for c in range(d.conn_upper.shape[0]):  # the contact rows of connector c
         r0, r1 = d.conn_first_contact[c], d.conn_first_contact[c + 1]
         if minimum:  # one row a connector
             r0, r1 = c, c + 1
         for i in range(n_g + r0, n_g + r1):
+            for k in range(7):  # read first: a coordinate may repeat
+                j = d.conn_dofs[c, k]
+                raws[k] = jac[c0 + i, j] if j >= 0 else 0.0
             for k in range(7):
                 j = d.conn_dofs[c, k]
                 if j >= 0:
-                    jac[c0 + i, j] = dphi[i] * c_mat[i, j]
-                    jac[j, c0 + i] = -c_mat[i, j]
+                    jac[c0 + i, j] = dphi[i] * raws[k]
+                    jac[j, c0 + i] = -raws[k]
     jac[n_z - 1, n_z - 1] = 1.0 - ctrl
     return r, jac, zp, a, t
 
@@ -347,13 +397,7 @@ def _evaluate(
 @kernel
 def residual(d: SystemData, z: np.ndarray, load: np.ndarray) -> np.ndarray:  # type: ignore[type-arg]
     """The KKT residual r(z) (module docstring)."""
-    return _evaluate(d, z, load, _FIRST)[0]
-
-
-@kernel
-def jacobian(d: SystemData, z: np.ndarray, load: np.ndarray) -> np.ndarray:  # type: ignore[type-arg]
-    """The KKT Jacobian ∂r/∂z (:func:`biplan.model.lagrangian.kkt_jacobian`)."""
-    return _evaluate(d, z, load, _SECOND)[1]
+    return _evaluate(d, z, load, _FIRST, np.zeros((0, 0)))[0]
 
 
 @kernel

@@ -2,16 +2,16 @@
 
 :func:`solve_layout` finds, once per tube layout, the structure that
 :mod:`biplan.solvers.bordered` exploits: the structural pattern of ∂r/∂z (the union of the
-Jacobians at random states under an end force and under displacement control, so that the
-chain term and the end constraint's row and column are in it), its border (the unknowns whose
-rows couple more than a few others, taken greedily: the frame angles α_c of the chain term and
-the multiplier μ) and a reverse Cuthill–McKee order of the rest, whose bandwidths it measures;
-of the borders of :data:`DEGREE_LIMITS` it keeps the cheapest (:func:`solve_cost`).
-The result enters :class:`~.tables.SystemData` as ``solve_order`` (the inner unknowns in band
-order, then the border) and ``solve_band`` (n_inner, kl, ku); both are empty, and every solve
-is dense LU, for tubes below :data:`MIN_UNKNOWNS` unknowns, when the structure does not pay
-(:data:`MIN_GAIN`; e.g. denser chains of other readings) or when ``BIPLAN_KKT_SOLVE=dense``
-(:data:`SOLVE_ENV`).
+Jacobians at two random states, each under an end force and under displacement control, so
+that the chain term and the end constraint's row and column are in it), its border (the unknowns
+whose rows couple more than a few others, taken greedily: the frame angles α_c of the chain
+term and the multiplier μ) and a reverse Cuthill–McKee order of the rest, whose bandwidths
+it measures; of the borders of :data:`DEGREE_LIMITS` it keeps the cheapest
+(:func:`solve_cost`). The result enters :class:`~.tables.SystemData` as ``solve_order`` (the
+inner unknowns in band order, then the border) and ``solve_band`` (n_inner, kl, ku); both
+are empty, and every solve is dense LU, for tubes below :data:`MIN_UNKNOWNS` unknowns, when
+the structure does not pay (:data:`MIN_GAIN`; e.g. denser chains of other readings) or when
+``BIPLAN_KKT_SOLVE=dense`` (:data:`SOLVE_ENV`).
 
 Measured crossover (``benchmarks/bench_linear.py``, docs/performance.md): the bordered banded
 solve wins from N = 12 (n_z = 127) on, by ≈ 10× at N = 48; at N = 6 (n_z = 64) dense LU is as
@@ -60,15 +60,14 @@ def jacobian_pattern(data: SystemData, seed: int = 0) -> sp.csr_matrix:
     rng = np.random.default_rng(seed)
     pattern = np.zeros((n_z, n_z), dtype=bool)
     for _ in range(2):
-        z = np.concatenate(
-            [
-                rng.uniform(-0.1, 0.1, n_q),
-                rng.uniform(0.5, 1.0, n_g + n_c + 1),
-            ]
-        )
+        z = np.concatenate([rng.uniform(-0.1, 0.1, n_q), rng.uniform(0.5, 1.0, n_g + n_c + 1)])
         for load in ((1.0, 0.0, 0.0), (0.0, 0.5, 1.0)):
-            pattern |= assemble.jacobian(data, z, np.array(load)) != 0.0
-    sparse = sp.csr_matrix(pattern | pattern.T)
+            jac = np.zeros((n_z, n_z))  # its untouched pages are never allocated
+            pattern |= assemble.evaluate_into(data, z, np.array(load), True, jac)[1] != 0.0
+    i, j = np.nonzero(pattern)
+    i, j = np.concatenate([i, j]), np.concatenate([j, i])  # symmetrised
+    sparse = sp.csr_matrix((np.ones(i.size, dtype=np.int8), (i, j)), shape=(n_z, n_z))
+    sparse = sparse.astype(bool)  # (duplicates summed)
     sparse.sort_indices()
     return sparse
 
