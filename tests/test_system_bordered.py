@@ -2,8 +2,9 @@
 :mod:`biplan.model.system.ordering`) against dense LU: random bordered banded matrices and
 the real KKT Jacobians of 6 and 24 modules at rest, under an end force and under displacement
 control (relative residual ≤ 1e-12), singular systems reported as NaN, the
-Levenberg–Marquardt step against the normal equations, and the Newton of a long tube reaching
-the same equilibrium with the structure as without it."""
+Levenberg–Marquardt step against the normal equations, the Jacobian written in place and
+within the layout's pattern, and the Newton of a long tube reaching the same equilibrium with
+the structure as without it."""
 
 from __future__ import annotations
 
@@ -12,7 +13,7 @@ import pytest
 
 import biplan
 from biplan.model.params import Load
-from biplan.model.system import ordering
+from biplan.model.system import assemble, ordering
 from biplan.solvers import bordered, iteration
 from biplan.solvers.levenberg import lm_direction
 from conftest import make_tube
@@ -127,6 +128,35 @@ def test_kkt_jacobians_at_rest_and_under_load(tube_model, case):
         assert ok
         dense = lm_direction(jac, b, damping)
         assert np.linalg.norm(step - dense) <= 1e-7 * np.linalg.norm(dense)
+
+
+def test_the_jacobian_is_written_in_place_and_within_the_pattern(tube_model):
+    """``assemble.evaluate_into`` writes ∂r/∂z into the leading block of a larger array of
+    zeros (as the bordered path system and the Newton's reused arrays do) and nothing else;
+    at an equilibrium under each load, every entry outside the layout's symmetric pattern is
+    rounding (the bordered solve ignores it; its backward-error check sees it)."""
+    n = tube_model.layout.n_modules
+    pattern = ordering.jacobian_pattern(tube_model.system().data)
+    assert (pattern != pattern.T).nnz == 0
+    ref = biplan.relaxed_reference(tube_model)
+    for load in LOADS.values():
+        load = Load(load.force, 0.2 * n * load.displacement, load.displacement_control)
+        sol = biplan.solve_equilibrium(tube_model, biplan.Newton(), ref, load)
+        system = tube_model.system(load)
+        jac = system.jacobian(sol.z)
+        n_z = jac.shape[0]
+        big = np.zeros((n_z + 2, n_z + 2))
+        out = assemble.evaluate_into(system.data, sol.z, system.load, True, big)
+        assert out[1] is big
+        assert np.array_equal(big[:n_z, :n_z], jac)
+        assert not big[n_z:].any() and not big[:, n_z:].any()
+        assert np.array_equal(out[0], system.residual(sol.z))
+        rows, cols = np.nonzero(jac)
+        outside = ~np.asarray(pattern[rows, cols]).ravel()
+        # only rounding is outside: terms of the chain that cancel (≈ 1e-18 … 2e-16)
+        assert np.max(np.abs(jac[rows[outside], cols[outside]]), initial=0.0) <= 1e-14 * np.max(
+            np.abs(jac)
+        )
 
 
 def test_layout_by_size():
