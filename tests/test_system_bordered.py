@@ -1,5 +1,6 @@
 """The bordered banded solve of the KKT Jacobian (:mod:`biplan.solvers.bordered`, the layout of
-:mod:`biplan.model.system.ordering`) against dense LU: random bordered banded matrices and
+:mod:`biplan.model.system.ordering`): its band substitutions against LAPACK's ``dgbtrs``, and
+against dense LU: random bordered banded matrices and
 the real KKT Jacobians of 6 and 24 modules at rest, under an end force and under displacement
 control (relative residual ≤ 1e-12), singular systems reported as NaN, the
 Levenberg–Marquardt step against the normal equations, the Jacobian written in place and
@@ -71,6 +72,37 @@ def test_random_bordered_banded_matrices(rng, m, k, kl, ku):
     assert _relative_residual(a, x, b) <= 1e-12
     band = np.array([m, kl, ku])
     assert np.allclose(bordered.direction(a, b, order, band, True), np.linalg.solve(a, b))
+
+
+@pytest.mark.parametrize(
+    ("m", "kl", "ku", "nrhs"), [(40, 6, 6, 7), (97, 13, 13, 51), (30, 0, 3, 2)]
+)
+def test_band_factor_and_substitutions_equal_lapack(rng, m, kl, ku, nrhs):
+    """``bordered._factor_solve`` (LAPACK's ``dgbtrf``, then the substitutions of
+    ``_substitute`` for every right-hand side at once) against SciPy's ``dgbtrf`` +
+    ``dgbtrs`` pair, which solves them one at a time, with row interchanges (a weak
+    diagonal)."""
+    from scipy.linalg import lapack
+
+    dense = np.zeros((m, m))
+    for i in range(m):
+        for j in range(max(0, i - kl), min(m, i + ku + 1)):
+            dense[i, j] = rng.normal()
+    dense += 0.05 * np.diag(rng.normal(size=m))
+    rhs = rng.normal(size=(nrhs, m))
+    lapack_ab = np.zeros((2 * kl + ku + 1, m))  # LAPACK's AB, rows kl … for the band
+    for j in range(m):
+        for i in range(max(0, j - ku), min(m, j + kl + 1)):
+            lapack_ab[kl + ku + i - j, j] = dense[i, j]
+    lu, piv, info = lapack.dgbtrf(lapack_ab, kl, ku)
+    assert info == 0
+    assert kl == 0 or np.any(piv != np.arange(m))  # rows interchanged (SciPy's 0-based pivots)
+    expected = np.stack([lapack.dgbtrs(lu, kl, ku, b, piv)[0] for b in rhs])
+    ab, got = np.ascontiguousarray(lapack_ab.T), rhs.copy()
+    assert bordered._factor_solve(ab, kl, ku, got)
+    assert np.max(np.abs(got - expected)) <= 1e-12 * np.max(np.abs(expected))
+    for x, b in zip(got, rhs, strict=True):
+        assert _backward_error(dense, x, b) <= 1e-14
 
 
 def test_an_entry_outside_the_band_falls_back_to_dense_lu(rng):
