@@ -98,8 +98,9 @@ def test_band_factor_and_substitutions_equal_lapack(rng, m, kl, ku, nrhs):
     assert info == 0
     assert kl == 0 or np.any(piv != np.arange(m))  # rows interchanged (SciPy's 0-based pivots)
     expected = np.stack([lapack.dgbtrs(lu, kl, ku, b, piv)[0] for b in rhs])
-    ab, got = np.ascontiguousarray(lapack_ab.T), rhs.copy()
+    ab, got = np.ascontiguousarray(lapack_ab.T), np.ascontiguousarray(rhs.T)
     assert bordered._factor_solve(ab, kl, ku, got)
+    got = got.T
     assert np.max(np.abs(got - expected)) <= 1e-12 * np.max(np.abs(expected))
     for x, b in zip(got, rhs, strict=True):
         assert _backward_error(dense, x, b) <= 1e-14

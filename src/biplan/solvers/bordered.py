@@ -98,10 +98,10 @@ def _backward_ok(
 def _factor_solve(ab: np.ndarray, kl: int, ku: int, rhs: np.ndarray) -> bool:
     """Banded LU of the band ``ab`` (LAPACK column-major AB(2 kl + ku + 1, m) as a C array
     (m, 2 kl + ku + 1), overwritten by its factors) and solve for the columns of ``rhs``
-    (C (nrhs, m) = column-major (m, nrhs), overwritten); False where the band is singular.
-    The factors are LAPACK's (``dgbtrf``); the substitutions are :func:`_substitute`."""
-    m, ldab, nrhs = ab.shape[0], ab.shape[1], rhs.shape[0]
-    ints = np.array([m, kl, ku, ldab, 0, nrhs], dtype=np.int32)
+    ((m, nrhs), overwritten); False where the band is singular. The factors are LAPACK's
+    (``dgbtrf``); the substitutions are :func:`_substitute`."""
+    m, ldab = ab.shape[0], ab.shape[1]
+    ints = np.array([m, kl, ku, ldab, 0], dtype=np.int32)
     piv = np.empty(m, dtype=np.int32)
     _dgbtrf(
         ints[0:].ctypes,
@@ -115,16 +115,14 @@ def _factor_solve(ab: np.ndarray, kl: int, ku: int, rhs: np.ndarray) -> bool:
     )
     if ints[4] != 0:
         return False
-    b = rhs.T.copy()  # (m, nrhs): a row holds every right-hand side
-    _substitute(ab, piv, kl, ku, b)
-    rhs[:, :] = b.T
+    _substitute(ab, piv, kl, ku, rhs)
     return True
 
 
 @kernel
 def _substitute(ab: np.ndarray, piv: np.ndarray, kl: int, ku: int, b: np.ndarray) -> None:
     """B ← U⁻¹ L⁻¹ P B in place for the band factors of ``dgbtrf`` (``ab`` as in
-    :func:`_factor_solve`, 1-based pivots ``piv``), B (m, nrhs) C-ordered: ``dgbtrs``'s
+    :func:`_factor_solve`, 1-based pivots ``piv``), B (m, nrhs): ``dgbtrs``'s
     operations in its order, each applied to every right-hand side at once (a row of B is
     contiguous). LAPACK's ``dgbtrs`` takes the right-hand sides one at a time through
     level-2 BLAS: 2.2× the time for the 51 of a 48-module tube's Levenberg–Marquardt
@@ -161,18 +159,18 @@ def _eliminate(
     g: np.ndarray,
     b_border: np.ndarray,
 ) -> tuple[np.ndarray, np.ndarray, bool]:
-    """(x_inner, x_border, ok) of the bordered system from the banded solves ``rhs`` (k + 1,
-    m) = [W; y] (B W = E, B y = b_I): S = G − F W, S x_K = b_K − F y, x_I = y − W x_K, with
+    """(x_inner, x_border, ok) of the bordered system from the banded solves ``rhs`` (m,
+    k + 1) = [W, y] (B W = E, B y = b_I): S = G − F W, S x_K = b_K − F y, x_I = y − W x_K, with
     the rows of F = J[K, I] given sparse (``border_rows`` (k, m) values at the positions
     ``where`` (k, m), ``count`` (k,) of them each) and ``g`` = G (k, k)."""
-    k, m = rhs.shape[0] - 1, rhs.shape[1]
+    m, k = rhs.shape[0], rhs.shape[1] - 1
     s = np.empty((k, k))
     t = np.empty(k)
     for r in range(k):
         for c in range(k + 1):
             acc = 0.0
             for p in range(count[r]):
-                acc += border_rows[r, p] * rhs[c, where[r, p]]
+                acc += border_rows[r, p] * rhs[where[r, p], c]
             if c < k:
                 s[r, c] = g[r, c] - acc
             else:
@@ -180,9 +178,9 @@ def _eliminate(
     x_border = dense_solve(s, t) if k else np.zeros(0)
     x_inner = np.empty(m)
     for i in range(m):
-        acc = rhs[k, i]
+        acc = rhs[i, k]
         for c in range(k):
-            acc -= rhs[c, i] * x_border[c]
+            acc -= rhs[i, c] * x_border[c]
         x_inner[i] = acc
     return x_inner, x_border, bool(np.all(np.isfinite(x_border)))
 
@@ -217,14 +215,13 @@ def banded_solve(
         col = order[j]
         for i in range(max(0, j - ku), min(m, j + kl + 1)):
             ab[j, kl + ku + i - j] = a[order[i], col]
-    # right-hand sides (k + 1, m): the border columns E = J[I, K], then b_I
-    rhs = np.empty((k + 1, m))
+    # right-hand sides (m, k + 1): the border columns E = J[I, K], then b_I
+    rhs = np.empty((m, k + 1))
     for i in range(m):  # by the rows of a: a column of a strides over its rows
         row = order[i]
         for c in range(k):
-            rhs[c, i] = a[row, order[m + c]]
-    for i in range(m):
-        rhs[k, i] = b[order[i]]
+            rhs[i, c] = a[row, order[m + c]]
+        rhs[i, k] = b[row]
     if not _factor_solve(ab, kl, ku, rhs):
         return np.full(n, np.nan), False
     # the border rows F = J[K, I] by their non-zeros (a frame angle couples ≈ 1/4 of the
@@ -282,22 +279,21 @@ def lm_solve(
             j = order[q]
             ab[2 * q + 1, off + 2 * p - 2 * q - 1] = a[i, j]  # (y_i, dz_j) = a[i, j]
             ab[2 * q, off + 2 * p + 1 - 2 * q] = a[j, i]  # (dz_i, y_j) = a[j, i]
-    # border unknowns: y_K (c < k), dz_K (k + c); right-hand sides (2k + 1, 2m)
-    rhs = np.zeros((2 * k + 1, mm))
-    for c in range(k):
-        kc = order[m + c]
-        for p in range(m):
-            i = order[p]
-            rhs[c, 2 * p + 1] = a[kc, i]  # (dz_i, y_K) = a[K, i]
-            rhs[k + c, 2 * p] = a[i, kc]  # (y_i, dz_K) = a[i, K]
+    # border unknowns: y_K (c < k), dz_K (k + c); right-hand sides (2m, 2k + 1)
+    rhs = np.zeros((mm, 2 * k + 1))
     for p in range(m):
-        rhs[2 * k, 2 * p] = -r[order[p]]
+        i = order[p]
+        for c in range(k):
+            kc = order[m + c]
+            rhs[2 * p + 1, c] = a[kc, i]  # (dz_i, y_K) = a[K, i]
+            rhs[2 * p, k + c] = a[i, kc]  # (y_i, dz_K) = a[i, K]
+        rhs[2 * p, 2 * k] = -r[i]
     # the border rows are the transposed border columns (the system is symmetric)
     kk = 2 * k
     rows, where, count = np.empty((kk, mm)), np.empty((kk, mm), np.int64), np.zeros(kk, np.int64)
     for c in range(kk):
         for p in range(mm):
-            v = rhs[c, p]
+            v = rhs[p, c]
             if v != 0.0:
                 rows[c, count[c]] = v
                 where[c, count[c]] = p
