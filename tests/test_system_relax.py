@@ -151,10 +151,12 @@ def relaxed():
 
 def test_parallel_seeds_equal_one_seed_at_a_time(relaxed) -> None:
     _, d, target, mask, args, (zs, status, residual, iterations) = relaxed
-    for i in range(len(target)):
-        z, s, r, it = relax_loop.relax_seed(d, target[i], mask[i], *args)
-        np.testing.assert_array_equal(zs[i], z)
-        assert (status[i], residual[i], iterations[i]) == (s, r, it)
+    k, n_z = zs.shape
+    for i in range(k):  # each seed alone, on this thread, into arrays of its own
+        one = (np.full((k, n_z), np.nan), np.full(k, -1), np.full(k, np.nan), np.full(k, -1))
+        relax_loop.relax_rows(d, target, mask, *args, *one, i, i + 1)
+        np.testing.assert_array_equal(zs[i], one[0][i])
+        assert (status[i], residual[i], iterations[i]) == (one[1][i], one[2][i], one[3][i])
 
 
 def test_relaxed_seeds_are_equilibria_in_their_seeds_wells(relaxed) -> None:

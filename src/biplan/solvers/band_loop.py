@@ -107,13 +107,13 @@ def _argmax(x: np.ndarray) -> int:
     return best
 
 
-@kernel
+@kernel(inline="always")
 def _gradients(
     d: SystemData, q: np.ndarray, contact_tol: float, first: int, last: int, out: tuple
 ) -> None:  # type: ignore[type-arg]
     """:func:`image_gradient` of the images ``first`` … ``last − 1`` of q into the arrays
     ``out`` = (Π (M,), P∇Π (M, n_q), λ (M, n_g), λ_∂ (M, n_c), A (M, n_g + n_c, n_q),
-    pinv(Aᵀ) (M, n_g + n_c, n_q))."""
+    pinv(Aᵀ) (M, n_g + n_c, n_q)). Inlined into :func:`fire_band`, its one caller."""
     e, grad, lam, lam_c, rows, inverses = out
     for i in range(first, last):
         e[i], grad[i], lam[i], lam_c[i], rows[i], inverses[i] = image_gradient(d, q[i], contact_tol)

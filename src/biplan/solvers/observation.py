@@ -136,7 +136,7 @@ def min_reduced_eigenvalue(k: np.ndarray, a: np.ndarray, active: np.ndarray) -> 
     return np.linalg.eigvalsh(reduced)[0], dof
 
 
-@kernel
+@kernel(inline="always")
 def _observation(
     d: SystemData,
     z: np.ndarray,
@@ -149,7 +149,8 @@ def _observation(
     zp: float,
     weak_contacts: bool,
 ) -> tuple:
-    """:func:`observe_state` from the state's first-order terms (guides, gaps, energies, z_p)."""
+    """:func:`observe_state` from the state's first-order terms (guides, gaps, energies, z_p);
+    inlined into its callers (compiled on its own it would be optimised once more in each)."""
     n_q, n_g, n_c = d.sizes[0], d.sizes[1], d.sizes[2]
     n, nc = d.ref.shape[0], d.conn_upper.shape[0]
     n_z = n_q + n_g + n_c + 1

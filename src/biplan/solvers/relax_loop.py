@@ -27,7 +27,10 @@ guide penalty to make the descent stiff):
    stationarity rows. Its status and residual are the seed's.
 
 :func:`relax_rows` relaxes a block of seeds; the blocks run in parallel
-(:mod:`biplan.solvers.lanes`).
+(:mod:`biplan.solvers.lanes`). It is the one compiled entry point: the stages and
+:func:`relax_seed` are inlined into it (``inline="always"``), since each compiled on its own
+would optimise the code below it (the Newton with the assembly, for :func:`relax_seed`) once
+more (docs/performance.md, "One-time compile").
 """
 
 from __future__ import annotations
@@ -99,7 +102,7 @@ def _finite(x: np.ndarray) -> bool:
     return bool(np.all(np.isfinite(x)))
 
 
-@kernel
+@kernel(inline="always")
 def kinematic_seed(d: SystemData, target: np.ndarray, mask: np.ndarray) -> tuple:  # type: ignore[type-arg]
     """(x, max |r| [mm]): stage 1 (module docstring) toward fold openings ``target`` (N + Nc,)
     [mm] where ``mask`` is 1."""
@@ -120,7 +123,7 @@ def kinematic_seed(d: SystemData, target: np.ndarray, mask: np.ndarray) -> tuple
     return x, np.max(np.abs(_seed_residual(d, x, target, mask)[0]))
 
 
-@kernel
+@kernel(inline="always")
 def descent(d: SystemData, x0: np.ndarray, stiffness: float, max_iterations: int) -> tuple:  # type: ignore[type-arg]
     """(x, iterations): stage 2 (module docstring) from x0 with penalty stiffness k_p [N/mm]."""
     x = x0.copy()
@@ -157,7 +160,7 @@ def descent(d: SystemData, x0: np.ndarray, stiffness: float, max_iterations: int
     return x, it
 
 
-@kernel
+@kernel(inline="always")
 def polish_start(d: SystemData, x: np.ndarray, stiffness: float) -> np.ndarray:
     """The start z = [q(x), λ, λ_∂, 0] of the KKT polish (module docstring, stage 3)."""
     n_q, n_g, n_c = d.sizes[0], d.sizes[1], d.sizes[2]
@@ -180,7 +183,7 @@ def polish_start(d: SystemData, x: np.ndarray, stiffness: float) -> np.ndarray:
     return z
 
 
-@kernel
+@kernel(inline="always")
 def relax_seed(
     d: SystemData,
     target: np.ndarray,

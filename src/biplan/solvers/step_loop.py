@@ -20,7 +20,10 @@ step (Armijo c = 1e-4, 12 halvings, no Levenberg–Marquardt fallback).
 :func:`trajectory` runs the driver's chunks of :data:`CHUNK_STEPS` steps: a failed step (no
 convergence, a non-finite state, or energy created by the step, see :func:`step`) freezes the
 rest of its chunk, the driver retries from the last converged state with the step halved and
-resumes the nominal step after a chunk that went through.
+resumes the nominal step after a chunk that went through. :func:`step` and the energies of
+a state are inlined into their callers (``inline="always"``): compiled on its own, the step
+would optimise the Newton and the assembly below it once more (docs/performance.md, "One-time
+compile").
 """
 
 from __future__ import annotations
@@ -87,14 +90,14 @@ def coefficients(rho_inf: float) -> tuple[float, float, float, float]:
     return am, af, gamma, 0.25 * (gamma + 0.5) ** 2
 
 
-@kernel
+@kernel(inline="always")
 def _energies(d: SystemData, z: np.ndarray) -> tuple[float, float]:
     """(z_p [mm], Π [N·mm]) at z."""
     zp, _, e_hel, e_circ, _ = observe(d, z)
     return zp, e_hel.sum() + e_circ.sum()
 
 
-@kernel
+@kernel(inline="always")
 def step(
     d: SystemData,
     z_n: np.ndarray,
