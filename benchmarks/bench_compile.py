@@ -1,7 +1,7 @@
 """One-time compile of biplan's Numba kernels: wall time and where it goes, per function.
 
 Run:  .venv/bin/python benchmarks/bench_compile.py [--baseline-src DIR] [--opt K]
-      [--baseline-opt K] [--warm] [-- biplan args]
+      [--baseline-opt K] [--warm] [--workloads NAME … [--drop MODULE …]] [-- biplan args]
 
 Runs a biplan command (default ``respond examples/semi_bistable.toml``) in a new process with
 an empty kernel cache (``BIPLAN_NUMBA_CACHE`` in a temporary folder), so every kernel the
@@ -17,6 +17,12 @@ the same machine load, and prints the ratio of the wall times. ``--opt K`` sets 
 (the CLI compiles at -O1 unless it is set); ``--baseline-opt K`` runs the baseline on this tree
 at another level (at the same time). ``--warm`` then runs the command again in a new process on
 each warm cache (the wall time a user sees from the second run on).
+
+``--workloads NAME … [--drop MODULE …]`` times workloads of ``biplan compile`` (e.g.
+``states dynamics``) instead of a command, on a cache that holds every kernel but those of the
+modules ``--drop`` names (e.g. ``solvers/relax_loop solvers/step_loop``; each tree's cache is
+filled by ``biplan compile --jobs 2`` first): the compile of those modules alone
+(docs/performance.md, "One-time compile").
 """
 
 from __future__ import annotations
@@ -48,11 +54,18 @@ class Listener(event.Listener):
             times[self.stack[-1][0]] -= dt
 event.register("numba:compile", Listener())
 t0 = time.perf_counter()
-from biplan.cli.main import app
-try:
-    app(sys.argv[1:], standalone_mode=False)
-except SystemExit:
-    pass
+if sys.argv[1] == "--workloads":  # workloads of `biplan compile`, in this process
+    from biplan._compile.numba_cache import use_own_opt_level
+    use_own_opt_level()
+    from biplan.cli.compile import WORKLOADS
+    for name in sys.argv[2:]:
+        WORKLOADS[name]()
+else:
+    from biplan.cli.main import app
+    try:
+        app(sys.argv[1:], standalone_mode=False)
+    except SystemExit:
+        pass
 total = time.perf_counter() - t0
 own = {k: v for k, v in times.items() if k.startswith("biplan.")}
 print(f"WALL {total:.1f} s; compile {sum(times.values()):.1f} s "
@@ -72,7 +85,8 @@ def _start(
     if src is not None:
         env["PYTHONPATH"] = os.pathsep.join([str(src / "src"), env.get("PYTHONPATH", "")])
     cwd = src if src is not None else Path.cwd()
-    argv = [*args, "--out", str(out)] if "--out" not in args else args
+    workloads = args[:1] == ["--workloads"]
+    argv = [*args, "--out", str(out)] if not workloads and "--out" not in args else args
     return subprocess.Popen(
         [sys.executable, "-c", CHILD, *argv],
         env=env,
@@ -90,17 +104,44 @@ def _summary(proc: subprocess.Popen[str]) -> tuple[float, str]:
     return wall, "\n".join(lines) if lines else err[-2000:]
 
 
+def _fill(src: Path | None, cache: Path, drop: list[str]) -> None:
+    """Compile every kernel of a tree into ``cache`` (``biplan compile --jobs 2``), then delete
+    the entries of the modules ``drop`` (``solvers/relax_loop``: paths in the cache folder)."""
+    env = dict(os.environ, BIPLAN_NUMBA_CACHE=str(cache))
+    env.pop("NUMBA_OPT", None)
+    if src is not None:
+        env["PYTHONPATH"] = os.pathsep.join([str(src / "src"), env.get("PYTHONPATH", "")])
+    subprocess.run(
+        [sys.executable, "-m", "biplan", "compile", "--jobs", "2"],
+        env=env,
+        cwd=src if src is not None else Path.cwd(),
+        check=True,
+        capture_output=True,
+    )
+    for module in drop:
+        for entry in cache.glob(f"*/{module}.*"):
+            entry.unlink()
+
+
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--baseline-src", type=Path, default=None)
     parser.add_argument("--opt", type=int, choices=range(4), default=None)
     parser.add_argument("--baseline-opt", type=int, choices=range(4), default=None)
     parser.add_argument("--warm", action="store_true")
+    parser.add_argument("--workloads", nargs="+", default=None)
+    parser.add_argument("--drop", nargs="+", default=[])
     parser.add_argument("command", nargs="*", default=["respond", "examples/semi_bistable.toml"])
     args = parser.parse_args()
-    load = os.getloadavg()[0]
+    if args.workloads:
+        args.command = ["--workloads", *args.workloads]
     with tempfile.TemporaryDirectory(prefix="biplan-compile-") as tmp:
         root = Path(tmp)
+        if args.workloads:  # every kernel cached but those of the dropped modules
+            _fill(None, root / "cache", args.drop)
+            if args.baseline_src is not None:
+                _fill(args.baseline_src.resolve(), root / "base", args.drop)
+        load = os.getloadavg()[0]
         start = time.perf_counter()
         this = _start(None, args.command, root / "cache", root / "out", args.opt)
         base = None
