@@ -63,6 +63,19 @@ def _bordered_matrix(
     return a, perm.astype(np.int64)
 
 
+def _direction(a, b, order, band, structured):
+    """``bordered.direction``'s x, its second output checked to be the product a x (the
+    Newton's slope takes it)."""
+    x, ax = bordered.direction(a, b, order, band, structured)
+    if np.all(np.isnan(x)):  # singular
+        assert np.all(np.isnan(ax))
+        return x
+    expected = a @ x
+    scale = np.max(np.abs(expected))
+    assert np.allclose(ax, expected, rtol=1e-13, atol=1e-13 * scale)
+    return x
+
+
 @pytest.mark.parametrize(("m", "k", "kl", "ku"), [(40, 3, 2, 5), (200, 12, 6, 6), (90, 0, 4, 1)])
 def test_random_bordered_banded_matrices(rng, m, k, kl, ku):
     a, order = _bordered_matrix(rng, m, k, kl, ku)
@@ -71,7 +84,7 @@ def test_random_bordered_banded_matrices(rng, m, k, kl, ku):
     assert ok
     assert _relative_residual(a, x, b) <= 1e-12
     band = np.array([m, kl, ku])
-    assert np.allclose(bordered.direction(a, b, order, band, True), np.linalg.solve(a, b))
+    assert np.allclose(_direction(a, b, order, band, True), np.linalg.solve(a, b))
 
 
 @pytest.mark.parametrize(
@@ -110,7 +123,7 @@ def test_an_entry_outside_the_band_falls_back_to_dense_lu(rng):
     a, order = _bordered_matrix(rng, 60, 4, 3, 3)
     a[order[0], order[50]] = 5.0  # outside the layout's band: the check rejects the result
     b = rng.normal(size=64)
-    x = bordered.direction(a, b, order, np.array([60, 3, 3]), True)
+    x = _direction(a, b, order, np.array([60, 3, 3]), True)
     assert _relative_residual(a, x, b) <= 1e-12
 
 
@@ -118,7 +131,7 @@ def test_singular_systems_report_nan(rng):
     a, order = _bordered_matrix(rng, 50, 3, 2, 2)
     a[order[10], :] = 0.0  # a zero row: singular
     b = rng.normal(size=53)
-    x = bordered.direction(a, b, order, np.array([50, 2, 2]), True)
+    x = _direction(a, b, order, np.array([50, 2, 2]), True)
     assert np.all(np.isnan(x))
     assert np.all(np.isnan(bordered.dense_solve(a, b)))
 
@@ -145,16 +158,16 @@ def test_kkt_jacobians_at_rest_and_under_load(tube_model, case):
     x, ok = bordered.banded_solve(jac, b, order, *band)
     assert ok
     _as_good_as_dense(jac, x, b)
-    _as_good_as_dense(jac, bordered.direction(jac, b, order, band, True), b)
+    _as_good_as_dense(jac, _direction(jac, b, order, band, True), b)
     # a right-hand side in the range of J's large singular values
     exact = np.random.default_rng(1).normal(size=b.size)
     rhs = jac @ exact
-    assert _relative_residual(jac, bordered.direction(jac, rhs, order, band, True), rhs) <= 1e-12
+    assert _relative_residual(jac, _direction(jac, rhs, order, band, True), rhs) <= 1e-12
     # the bordered path system: one more unknown, in the border
     border = np.concatenate([np.ones(jac.shape[0]), [2.0]])
     big = np.block([[jac, b[:, None]], [border[None, :-1], border[-1:, None]]])
     rhs = np.concatenate([b, [1.0]])
-    _as_good_as_dense(big, bordered.direction(big, rhs, order, band, True), rhs)
+    _as_good_as_dense(big, _direction(big, rhs, order, band, True), rhs)
     # the Levenberg–Marquardt step: the augmented system against the normal equations
     for damping in (1e-3, 1.0, 1e4):
         step, ok = bordered.lm_solve(jac, b, damping, order, *band)

@@ -296,7 +296,9 @@ def solve(
     # The Jacobians are written into a pool of three arrays, reused: the current iterate's
     # (jac), the watchdog's best (best_jac) and a trial's; ``cur`` and ``best`` are the
     # arrays of the first two (−1: not in the pool). A fresh n × n array a Jacobian cost more
-    # than the rest of a Newton step at N = 400 (docs/performance.md).
+    # than the rest of a Newton step at N = 400 (docs/performance.md). Once no watchdog
+    # return is left (free = 0) an accepted point overwrites the current Jacobian: a solve
+    # without the watchdog allocates one array (71 ms of page faults at N = 400).
     pool = (no_jacobian, no_jacobian, no_jacobian)
     cur, best = -1, -1
     alpha_min = 0.5**max_bt
@@ -327,13 +329,17 @@ def solve(
         damping_r = damping * 10.0 if lm else damping
         was_finite = np.isfinite(f)
         if accept:
-            k = 0
-            while k in (cur, best):
-                k += 1
+            if free == 0 and cur >= 0:
+                # no watchdog return is left: the current Jacobian is not needed again
+                k = cur
+            else:
+                k = 0
+                while k in (cur, best):
+                    k += 1
             pool = _zeroed(pool, k, n)
             rj, jt = system(d, zt, load, border, rho, True, step, pool[k])
             m = deflate(d, zt, rj, jt, deflation) if deflated else 1.0
-            dz_n = direction(jt, -rt, d.solve_order, d.solve_band, structured)
+            dz_n, jdz = direction(jt, -rt, d.solve_order, d.solve_band, structured)
             newton_ok = finite(dz_n)
             lm_kept = False
             if newton_ok:
@@ -342,12 +348,13 @@ def solve(
                 dz_a, lm_jtj, lm_g, lm_kept = levenberg_marquardt(
                     d, jt, rt, damping, structured, lm_jtj, lm_g, False
                 )
+                jdz = jt @ dz_a
             else:  # a singular Newton system ends the plain damped Newton
                 dz_a = dz_n
                 status = _FAILED
             z, r, f, jac, dz = zt, rt, ft, jt, dz_a
             cur = k
-            slope = float(rt @ (jt @ dz_a))
+            slope = float(rt @ jdz)
             alpha, lm, damping = 1.0, not newton_ok, max(damping * 0.3, 1e-9)
             if was_finite:
                 steps += 1

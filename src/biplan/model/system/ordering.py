@@ -59,11 +59,16 @@ def jacobian_pattern(data: SystemData, seed: int = 0) -> sp.csr_matrix:
     n_z = n_q + n_g + n_c + 1
     rng = np.random.default_rng(seed)
     pattern = np.zeros((n_z, n_z), dtype=bool)
-    for _ in range(2):
-        z = np.concatenate([rng.uniform(-0.1, 0.1, n_q), rng.uniform(0.5, 1.0, n_g + n_c + 1)])
-        for load in ((1.0, 0.0, 0.0), (0.0, 0.5, 1.0)):
-            jac = np.zeros((n_z, n_z))  # its untouched pages are never allocated
-            pattern |= assemble.evaluate_into(data, z, np.array(load), True, jac)[1] != 0.0
+    # one array, zeroed between the evaluations: a fresh one each would fault its pages in
+    # again (NumPy's zeros are allocated as they are written)
+    jac = np.zeros((n_z, n_z))
+    for k in range(4):
+        if k % 2 == 0:
+            z = np.concatenate([rng.uniform(-0.1, 0.1, n_q), rng.uniform(0.5, 1.0, n_g + n_c + 1)])
+        if k:
+            jac[:, :] = 0.0
+        load = np.array((1.0, 0.0, 0.0) if k % 2 == 0 else (0.0, 0.5, 1.0))
+        pattern |= assemble.evaluate_into(data, z, load, True, jac)[1] != 0.0
     i, j = np.nonzero(pattern)
     i, j = np.concatenate([i, j]), np.concatenate([j, i])  # symmetrised
     sparse = sp.csr_matrix((np.ones(i.size, dtype=np.int8), (i, j)), shape=(n_z, n_z))
