@@ -78,3 +78,18 @@ def test_failed_compiled_solve_says_so(model6, reference6):
         biplan.solve_equilibrium(
             model6, biplan.Newton(max_steps=2), reference6, Load.of_displacement(5.0), throw=True
         )
+
+
+def test_non_finite_start_ends_at_once(model6, reference6):
+    """A start whose residual is not finite has no point to step from: the compiled Newton
+    returns it with status NONFINITE after no step, and an n × n Jacobian placeholder."""
+    start = reference6.z.copy()
+    start[0] = np.nan
+    s = iteration.newton_settings(1e-9, 30, 8, 1e-4, 0)
+    z, _, f, jac, steps, status = iteration.solve_system(
+        model6.system(Load(0.5, 0.0, 0.0)), start, s
+    )
+    assert status == biplan.Status.NONFINITE.value
+    assert steps == 0 and not np.isfinite(f)
+    np.testing.assert_array_equal(z, start)
+    assert jac.shape == (start.size, start.size)

@@ -307,7 +307,7 @@ def solve(
     z = z0.copy()
     r = np.zeros(n)
     f = np.inf
-    jac = np.eye(n)
+    jac = no_jacobian  # the current iterate's, once a point is accepted
     dz = np.zeros(n)
     slope, alpha, lm, damping = 0.0, 0.0, False, 1e-3
     steps, evals, status = 0, 0, -1
@@ -365,7 +365,9 @@ def solve(
             elif steps >= max_steps:
                 status = _MAX_STEPS
         else:
-            if to_lm and not with_lm:  # halvings spent: the damped Newton fails here
+            if not np.isfinite(f):  # a non-finite start: no point to step from
+                status = _NONFINITE
+            elif to_lm and not with_lm:  # halvings spent: the damped Newton fails here
                 status = _FAILED
             elif to_lm and damping_r > 1e12:  # fails below: no step to compute
                 alpha = 1.0
@@ -376,10 +378,10 @@ def solve(
                 alpha = 1.0
             else:  # a halving: dz, and with it the slope, stay
                 alpha = 0.5 * alpha
-            if to_lm:
+            if to_lm and np.isfinite(f):
                 slope = float(r @ (jac @ dz))
             lm, damping = to_lm and with_lm, damping_r
-            if status == _FAILED:
+            if status >= 0:  # set above (failed, non-finite): it stays
                 pass
             elif damping_r > 1e12:
                 status = _FAILED
@@ -402,4 +404,5 @@ def solve(
         status = _MAX_STEPS
     if not np.isfinite(f):
         status = _NONFINITE
+        jac = np.eye(n)  # (no Jacobian was evaluated; an n × n placeholder for the callers)
     return z, r, f, jac, steps, status
