@@ -43,10 +43,9 @@ def best(f: Callable[[], object], n: int) -> float:
     return min(times)
 
 
-def measure(n: int) -> None:
-    """Print the warm timings of an N-module tube."""
+def semi_bistable_model(n: int) -> biplan.Model:
+    """The semi-bistable laws and SI Table geometry with N modules on a base fold."""
     laws = biplan.designs.semi_bistable()
-    settings = iteration.newton_settings(1e-9, 60, 30, 1e-4, 0)
     tube = biplan.Tube.uniform(
         radius=2.0,
         pitch=3.6,
@@ -56,7 +55,13 @@ def measure(n: int) -> None:
         circular=laws.circular_laws[0],
         base_fold=True,
     )
-    model = biplan.Model(tube)
+    return biplan.Model(tube)
+
+
+def measure(n: int) -> None:
+    """Print the warm timings of an N-module tube."""
+    settings = iteration.newton_settings(1e-9, 60, 30, 1e-4, 0)
+    model = semi_bistable_model(n)
     ref = biplan.relaxed_reference(model)
     system = model.system(biplan.Load.of_force(0.5))
     iteration.solve_system(system, ref.z, settings)
@@ -105,17 +110,7 @@ def pieces(n: int) -> None:
     from biplan.solvers import bordered
     from biplan.solvers.newton import _start_vector
 
-    laws = biplan.designs.semi_bistable()
-    tube = biplan.Tube.uniform(
-        radius=2.0,
-        pitch=3.6,
-        helical_angle=60.0,
-        n_modules=n,
-        helical=laws.helical_laws[0],
-        circular=laws.circular_laws[0],
-        base_fold=True,
-    )
-    model = biplan.Model(tube)
+    model = semi_bistable_model(n)
     system = model.system()
     d = system.data
     z = _start_vector(model, model.zeros())
