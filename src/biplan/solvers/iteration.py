@@ -365,9 +365,9 @@ def solve(
             elif steps >= max_steps:
                 status = _MAX_STEPS
         else:
-            if not np.isfinite(f):  # a non-finite start: no point to step from
-                status = _NONFINITE
-            elif to_lm and not with_lm:  # halvings spent: the damped Newton fails here
+            if not np.isfinite(f):  # a non-finite start: no point to step from (NONFINITE)
+                break
+            if to_lm and not with_lm:  # halvings spent: the damped Newton fails here
                 status = _FAILED
             elif to_lm and damping_r > 1e12:  # fails below: no step to compute
                 alpha = 1.0
@@ -378,10 +378,10 @@ def solve(
                 alpha = 1.0
             else:  # a halving: dz, and with it the slope, stay
                 alpha = 0.5 * alpha
-            if to_lm and np.isfinite(f):
+            if to_lm:
                 slope = float(r @ (jac @ dz))
             lm, damping = to_lm and with_lm, damping_r
-            if status >= 0:  # set above (failed, non-finite): it stays
+            if status == _FAILED:
                 pass
             elif damping_r > 1e12:
                 status = _FAILED
