@@ -1,6 +1,6 @@
 """The compiled dynamics (:mod:`biplan.model.system.inertia`, :mod:`biplan.solvers.step_loop`)
-equal the JAX dynamics (:mod:`biplan.model.inertia`, the JAX time loop of
-``tests/jax_oracle/dynamics.py``), under every chain reading.
+equal the JAX dynamics (:mod:`biplan.model.inertia`, and the reference time loop of
+``tests/jax_oracle/dynamics.py`` on the JAX model's terms), under every chain reading.
 
 * the quadrature points, their Jacobians and velocity-quadratic terms, the weights, the mass
   matrix, the inertia force, the kinetic energy and the exact derivative of the inertia rows of
@@ -14,8 +14,8 @@ equal the JAX dynamics (:mod:`biplan.model.inertia`, the JAX time loop of
 * the damped Newton of a step takes the iterates of :func:`biplan.solvers.iteration.newton`;
 * the paper's ramp, a snap with contact impacts (backward Euler) and the fully bistable tube
   under ``EDGE_FIT`` (a generalized-α ramp, a damped snap) take the same steps, retries and
-  Newton iterations as the JAX time loop and end in the same state, with the same energy
-  balance.
+  Newton iterations as the reference time loop on the JAX model and end in the same state,
+  with the same energy balance.
 """
 
 from __future__ import annotations
@@ -233,7 +233,7 @@ def _same_run(compiled, reference, q_tol: float) -> None:
 def test_paper_ramp_equals_jax(model6, reference6, monkeypatch):
     scheme = biplan.GeneralizedAlpha()
     compiled = biplan.integrate(model6, scheme, reference6, t_end=2.0)
-    _jax_dynamics.chunk.clear_cache()
+    _jax_dynamics.step_system.clear_cache()
     reference = _jax_dynamics.integrate(monkeypatch, model6, scheme, reference6, t_end=2.0)
     assert compiled.completed, compiled.message
     _same_run(compiled, reference, 1e-9)
@@ -243,13 +243,13 @@ def test_paper_ramp_equals_jax(model6, reference6, monkeypatch):
     assert compiled.force[-1] == pytest.approx(reference.force[-1], abs=1e-7)
     # energy balance: T + Π − W + D is kept to the scheme's (tiny, quasi-static) dissipation
     assert np.ptp(compiled.total_energy) < 1e-6 * np.max(np.abs(compiled.external_work))
-    # strongly typed initial state of the JAX loop: later chunks reuse the first compilation
-    assert _jax_dynamics.chunk._cache_size() == 1
+    # one input type per argument: every step reuses the first compilation of the step system
+    assert _jax_dynamics.step_system._cache_size() == 1
 
 
 def test_snap_with_contact_impacts_equals_jax(model6, reference6, monkeypatch):
     """A violent snap (folds into their contacts at m/s) with step retries: the exact
-    derivative of the inertia rows keeps the compiled iteration on JAX's iterates."""
+    derivative of the inertia rows keeps the compiled iteration on the reference loop's iterates."""
     s = biplan.solve_equilibrium(model6, None, reference6, Load.of_force(1.0))
     for f in np.arange(1.075, 2.05 + 1e-9, 0.075):
         s = biplan.solve_equilibrium(model6, None, s, Load.of_force(float(f)))
@@ -267,7 +267,7 @@ def test_snap_with_contact_impacts_equals_jax(model6, reference6, monkeypatch):
 def test_edge_fit_trajectories_equal_jax(monkeypatch):
     """The fully bistable tube under R3 ``EDGE_FIT`` (curved frame angles): the paper's
     generalized-α ramp up to its first snap, then the snap itself, damped (backward Euler with
-    Rayleigh damping, step retries), take the JAX loop's steps, retries and iterations."""
+    Rayleigh damping, step retries), take the reference loop's steps, retries and iterations."""
     model = biplan.Model(biplan.designs.fully_bistable())
     assert model.system().data.flags[2] == 1
     start = biplan.relaxed_reference(model)
