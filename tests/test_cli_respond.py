@@ -165,3 +165,30 @@ def test_respond_force_default_is_the_load_controlled_test(tmp_path: Path) -> No
     assert short.exit_code == 1
     assert "ended short of --stop" in short.output and "maximum number of steps" in short.output
     assert (tmp_path / "s" / "response.nc").is_file()
+
+
+def test_respond_writes_its_files_without_xarray(tmp_path: Path) -> None:
+    """The default response (and its netCDF file) in a new process imports neither JAX nor
+    xarray, pandas or Dask (about 0.8 s of imports: docs/performance.md)."""
+    import subprocess
+    import sys
+
+    code = (
+        "import sys\n"
+        "from biplan.cli.main import app\n"
+        f"argv = ['respond', {str(CONFIG)!r}, '--out', {str(tmp_path)!r}, '--quiet']\n"
+        "try:\n"
+        "    app(argv)\n"
+        "except SystemExit as e:\n"
+        "    assert e.code in (0, None), e.code\n"
+        "heavy = {'jax', 'xarray', 'pandas', 'dask'}\n"
+        "print(sorted({m.split('.')[0] for m in sys.modules} & heavy))\n"
+    )
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True)
+    assert out.returncode == 0, out.stderr[-2000:]
+    assert out.stdout.strip().splitlines()[-1] == "[]"
+    import xarray as xr
+
+    with xr.open_dataset(tmp_path / "response.nc", engine="h5netcdf") as ds:
+        assert ds.attrs["kind"] == "path" and ds.sizes["step"] > 10
+        assert "[geometry]" in ds.attrs["config"]

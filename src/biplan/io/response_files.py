@@ -1,9 +1,12 @@
 """The data files of one response: ``STEM.nc`` and ``STEM.csv``, whatever traced it.
 
-A path or trajectory is written by :func:`~biplan.io.results.dataset` /
+A path or trajectory is written by :func:`~biplan.io.results.labelled` /
 :func:`~biplan.io.results.save_csv`, a stable-branch displacement sweep by
-:func:`~biplan.io.results.sweep_dataset` / :func:`~biplan.io.results.save_sweep_csv` (its
-dataset needs the model: a sweep does not carry it).
+:func:`~biplan.io.results.sweep_labelled` / :func:`~biplan.io.results.save_sweep_csv` (its
+labelled form needs the model: a sweep does not carry it). Both write their netCDF file
+without importing xarray (:func:`biplan.io.netcdf.write_labelled`); the file reads back as
+the result's ``xarray.Dataset`` (:func:`~biplan.io.results.dataset`,
+:func:`~biplan.io.results.sweep_dataset`).
 """
 
 from __future__ import annotations
@@ -12,7 +15,7 @@ from pathlib import Path as FilePath
 
 from biplan._errors import ConfigError
 from biplan.analysis.response.quasistatic import QuasiStaticPath
-from biplan.io.results import dataset, save_csv, save_netcdf, save_sweep_csv, sweep_dataset
+from biplan.io.results import labelled, save_csv, save_netcdf, save_sweep_csv, sweep_labelled
 from biplan.model.assembly import Model
 from biplan.solvers.path_results import EquilibriumPath
 from biplan.solvers.trajectory_results import Trajectory
@@ -51,5 +54,5 @@ def save_response(
     if isinstance(result, QuasiStaticPath):
         if model is None:
             raise ConfigError("model", None, "the model of the stable-branch sweep")
-        return save_netcdf(sweep_dataset(result, model), nc), save_sweep_csv(result, csv)
-    return save_netcdf(dataset(result), nc), save_csv(result, csv)
+        return save_netcdf(sweep_labelled(result, model), nc), save_sweep_csv(result, csv)
+    return save_netcdf(labelled(result), nc), save_csv(result, csv)

@@ -25,10 +25,10 @@ import numpy as np
 from biplan._errors import ConfigError
 from biplan.analysis.response.quasistatic import SWEEP_KIND, QuasiStaticPath
 from biplan.io.config import dump_config, load_config_text
-from biplan.io.netcdf import write_netcdf
+from biplan.io.netcdf import write_labelled, write_netcdf
 from biplan.model.assembly import Load, Model
 from biplan.solvers.path_results import EquilibriumPath
-from biplan.solvers.results import ENERGY_BALANCE, RESPONSE_VARIABLES
+from biplan.solvers.results import ENERGY_BALANCE, RESPONSE_VARIABLES, Labelled
 from biplan.solvers.trajectory_results import Trajectory
 
 __all__ = [
@@ -38,6 +38,7 @@ __all__ = [
     "ResultKind",
     "dataset",
     "describe_result",
+    "labelled",
     "load_result",
     "model_of",
     "result_kind",
@@ -46,6 +47,7 @@ __all__ = [
     "save_netcdf",
     "save_sweep_csv",
     "sweep_dataset",
+    "sweep_labelled",
 ]
 
 #: Scalar columns of the CSV form, in order (``t`` first for trajectories).
@@ -70,37 +72,52 @@ SWEEP_CSV_COLUMNS = (
 )  # fmt: skip
 
 
-def dataset(result: EquilibriumPath | Trajectory) -> Any:
-    """The labelled form of a result, with ``attrs["config"]`` = the tube's TOML text."""
+def _checked(result: Any) -> EquilibriumPath | Trajectory:
     if not isinstance(result, EquilibriumPath | Trajectory):
         raise ConfigError("result", type(result).__name__, "a biplan EquilibriumPath or Trajectory")
-    ds = result.to_dataset()
-    ds.attrs["config"] = dump_config(result.model.tube)
-    return ds
+    return result
 
 
-def save_netcdf(result: EquilibriumPath | Trajectory | Any, path: str | FilePath) -> FilePath:
-    """Write a result (or its dataset) to netCDF [h5netcdf engine]."""
-    ds = result if not isinstance(result, EquilibriumPath | Trajectory) else dataset(result)
+def labelled(result: EquilibriumPath | Trajectory) -> Labelled:
+    """The labelled form of a result in plain arrays (what :func:`dataset` holds), with
+    ``attrs["config"]`` = the tube's TOML text."""
+    result = _checked(result)
+    return result.labelled().with_attrs(config=dump_config(result.model.tube))
+
+
+def dataset(result: EquilibriumPath | Trajectory) -> Any:
+    """The labelled form of a result as an ``xarray.Dataset``, with ``attrs["config"]`` = the
+    tube's TOML text."""
+    return labelled(result).to_dataset()
+
+
+def save_netcdf(
+    result: EquilibriumPath | Trajectory | Labelled | Any, path: str | FilePath
+) -> FilePath:
+    """Write a result, its :class:`~biplan.solvers.results.Labelled` form or an
+    ``xarray.Dataset`` to netCDF [h5netcdf engine]; a result or its labelled form is written
+    without importing xarray (:func:`biplan.io.netcdf.write_labelled`)."""
     out = FilePath(path)
     out.parent.mkdir(parents=True, exist_ok=True)
-    return write_netcdf(ds, out)
+    if isinstance(result, EquilibriumPath | Trajectory):
+        result = labelled(result)
+    if isinstance(result, Labelled):
+        return write_labelled(result, out)
+    return write_netcdf(result, out)
 
 
 def save_csv(result: EquilibriumPath | Trajectory, path: str | FilePath) -> FilePath:
     """Write the scalar observables, one row per step (path) or time (trajectory, column
     ``t`` [s] first). A first comment line gives the units."""
-    if not isinstance(result, EquilibriumPath | Trajectory):
-        raise ConfigError("result", type(result).__name__, "a biplan EquilibriumPath or Trajectory")
-    ds = result.to_dataset()
+    lab = _checked(result).labelled()
     cols = list(CSV_COLUMNS)
     if isinstance(result, Trajectory):
         cols = ["t", *cols, *_TRAJECTORY_EXTRA]
     else:
         cols = ["step", *cols, "limit_point"]
-        cols += [c for c in ("segment", "switched") if c in ds]
-    data = {c: _column(ds, c) for c in cols}
-    units = {c: ds[c].attrs.get("units", "") if c in ds else "" for c in cols}
+        cols += [c for c in ("segment", "switched") if c in lab.variables]
+    data = {c: lab.values("time" if c == "t" else c) for c in cols}
+    units = {c: lab.units(c) for c in cols}
     units["t"] = "s"
     out = FilePath(path)
     out.parent.mkdir(parents=True, exist_ok=True)
@@ -111,14 +128,6 @@ def save_csv(result: EquilibriumPath | Trajectory, path: str | FilePath) -> File
         for i in range(len(data[cols[0]])):
             w.writerow([_fmt(data[c][i]) for c in cols])
     return out
-
-
-def _column(ds: Any, name: str) -> np.ndarray:
-    if name == "t":
-        return np.asarray(ds["time"].values)
-    if name == "step":
-        return np.asarray(ds["step"].values)
-    return np.asarray(ds[name].values)
 
 
 def _fmt(v: Any) -> str:
@@ -157,7 +166,14 @@ def model_of(ds: Any) -> Model:
 
 
 def sweep_dataset(path: QuasiStaticPath, model: Model) -> Any:
-    """A stable-branch displacement sweep as an ``xarray.Dataset`` over ``step``.
+    """A stable-branch displacement sweep as an ``xarray.Dataset`` over ``step``
+    (:func:`sweep_labelled`)."""
+    return sweep_labelled(path, model).to_dataset()
+
+
+def sweep_labelled(path: QuasiStaticPath, model: Model) -> Labelled:
+    """A stable-branch displacement sweep in plain arrays over ``step`` (the content of
+    :func:`sweep_dataset`).
 
     Holds the scalar columns of :data:`SWEEP_COLUMNS`, ``status`` (Status value), the
     coordinates ``q`` and, as a path's dataset does, every fold's energy and phase fractions
@@ -165,8 +181,6 @@ def sweep_dataset(path: QuasiStaticPath, model: Model) -> Any:
     (step, fold, phase)) — so the energy, eigenvalue, phase and animation plots read it too.
     Failed steps are NaN. ``attrs["config"]`` is the tube's TOML text.
     """
-    import xarray as xr
-
     from biplan.solvers import observation
     from biplan.solvers.results import PHASES, fold_names
 
@@ -202,7 +216,7 @@ def sweep_dataset(path: QuasiStaticPath, model: Model) -> Any:
         "config": dump_config(model.tube),
     }
     coords = {"step": np.arange(n), "fold": names, "phase": list(PHASES)}
-    return xr.Dataset(data, coords=coords, attrs=attrs)
+    return Labelled(data, coords, attrs)
 
 
 def save_sweep_csv(path: QuasiStaticPath, file: str | FilePath) -> FilePath:

@@ -5,13 +5,17 @@
 observables of :class:`~biplan.solvers.observation.Observation` (:data:`OBSERVABLES`, built by
 :func:`observables`) and convert to an ``xarray.Dataset`` with
 :meth:`LabelledResult.to_dataset` (dims ``step`` or ``time``; ``coordinate``, ``fold``,
-``phase``; units in each variable's ``units`` attribute, :data:`UNITS`).
+``phase``; units in each variable's ``units`` attribute, :data:`UNITS`). The same content in
+plain arrays, :class:`Labelled` (:meth:`LabelledResult.labelled`), is what the ``biplan``
+command writes (:func:`biplan.io.netcdf.write_labelled`): a file written without importing
+xarray, which reads back as the same dataset.
 :func:`biplan.io.results.dataset` adds the tube's TOML configuration to the attributes, so that
 a saved file can be re-opened as a model (:func:`biplan.io.results.model_of`).
 """
 
 from __future__ import annotations
 
+from dataclasses import dataclass, replace
 from typing import Any
 
 import numpy as np
@@ -26,6 +30,7 @@ __all__ = [
     "PHASES",
     "RESPONSE_VARIABLES",
     "UNITS",
+    "Labelled",
     "LabelledResult",
     "display_units",
     "fold_names",
@@ -131,6 +136,49 @@ def _version() -> str:
         return "0.0.0+unknown"
 
 
+@dataclass(frozen=True)
+class Labelled:
+    """A labelled result in plain arrays: the arguments of ``xarray.Dataset(variables,
+    coords=coords, attrs=attrs)``.
+
+    Attributes
+    ----------
+    variables : dict
+        Data variables in order: name → (dims, array, attributes).
+    coords : dict
+        Coordinates in order: name → values (a dimension coordinate of the same name) or
+        (dims, array, attributes).
+    attrs : dict
+        Global attributes (numbers and strings).
+    """
+
+    variables: dict[str, tuple[tuple[str, ...], np.ndarray, dict[str, Any]]]
+    coords: dict[str, Any]
+    attrs: dict[str, Any]
+
+    def to_dataset(self) -> Any:
+        """The ``xarray.Dataset`` of these arrays."""
+        import xarray as xr
+
+        return xr.Dataset(self.variables, coords=self.coords, attrs=self.attrs)
+
+    def with_attrs(self, **attrs: Any) -> Labelled:
+        """A copy with ``attrs`` added to the global attributes."""
+        return replace(self, attrs={**self.attrs, **attrs})
+
+    def values(self, name: str) -> np.ndarray:
+        """The array of variable or coordinate ``name``."""
+        if name in self.variables:
+            return np.asarray(self.variables[name][1])
+        coord = self.coords[name]
+        return np.asarray(coord[1] if isinstance(coord, tuple) else coord)
+
+    def units(self, name: str) -> str:
+        """The ``units`` attribute of variable or coordinate ``name`` ("" when it has none)."""
+        entry = self.variables.get(name, self.coords.get(name))
+        return str(entry[2].get("units", "")) if isinstance(entry, tuple) else ""
+
+
 class LabelledResult:
     """The conversion to an ``xarray.Dataset`` shared by
     :class:`~biplan.solvers.path_results.EquilibriumPath` and
@@ -149,8 +197,10 @@ class LabelledResult:
 
     def to_dataset(self) -> Any:
         """The result as an ``xarray.Dataset`` (see module docstring)."""
-        import xarray as xr
+        return self.labelled().to_dataset()
 
+    def labelled(self) -> Labelled:
+        """The result's variables, coordinates and attributes in plain arrays."""
         dim = self._dim
         scale, shown_unit = display_units(self.control)
         data: dict[str, Any] = {}
@@ -187,5 +237,4 @@ class LabelledResult:
             "biplan_version": _version(),
             **self._attrs(),
         }
-        ds = xr.Dataset(data, coords=coords, attrs=attrs)
-        return ds
+        return Labelled(data, coords, attrs)

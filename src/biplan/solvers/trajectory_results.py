@@ -7,7 +7,7 @@ A trajectory converts to an ``xarray.Dataset`` (dim ``time``) with
 
 from __future__ import annotations
 
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from typing import Any
 
 import numpy as np
@@ -15,7 +15,7 @@ import numpy as np
 from biplan._errors import ResultStatus
 from biplan.model.assembly import Model
 from biplan.solvers.control import Control
-from biplan.solvers.results import ENERGY_BALANCE, OBSERVABLES, LabelledResult
+from biplan.solvers.results import ENERGY_BALANCE, OBSERVABLES, Labelled, LabelledResult
 
 __all__ = ["Trajectory", "TrajectoryStats", "TrajectoryStatus"]
 
@@ -103,6 +103,7 @@ class Trajectory(LabelledResult):
     def _attrs(self) -> dict[str, Any]:
         return {"method": self.method, "status": self.status.name, "message": self.message}
 
-    def to_dataset(self) -> Any:
-        ds = super().to_dataset()
-        return ds.assign_coords(time=("time", np.asarray(self.time), {"units": "s"}))
+    def labelled(self) -> Labelled:
+        out = super().labelled()
+        time = ("time", np.asarray(self.time), {"units": "s"})
+        return replace(out, coords={**out.coords, "time": time})
