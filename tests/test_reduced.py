@@ -148,17 +148,25 @@ def test_a_reduced_solution_is_a_full_equilibrium(model4) -> None:
     zs, status, residual = relax_seeds(model4, target, mask, s)
     assert int(status[0]) == 0
     z = zs[0]
-    full = np.asarray(residual_at_rest(lay, p, jnp.asarray(z)))
+    nq, ng, _ = sizes(lay)
+
+    @jax.jit  # one compiled function (eager, its operations compile one by one: ~30 s)
+    def mapped(z: jnp.ndarray) -> tuple[jnp.ndarray, ...]:
+        v = jnp.concatenate([reduced.reduced_coordinates(lay, z[:nq]), z[nq + ng :]])
+        return (
+            residual_at_rest(lay, p, z),
+            v,
+            reduced_residual_at_rest(lay, p, v),
+            full_state(lay, p, v),
+        )
+
+    full, v, reduced_residual, back = (np.asarray(a) for a in mapped(jnp.asarray(z)))
     assert np.abs(full).max() < s.newton.atol
     assert abs(float(residual[0]) - np.abs(full).max()) < 1e-15
     # the state is the full state of its own reduced coordinates
-    nq, ng, _ = sizes(lay)
-    nx = reduced.n_reduced(lay)
-    x = np.asarray(reduced.reduced_coordinates(lay, jnp.asarray(z[:nq])))
-    v = np.concatenate([x, z[nq + ng :]])
-    assert np.abs(np.asarray(reduced_residual_at_rest(lay, p, jnp.asarray(v)))).max() < 1e-8
-    np.testing.assert_allclose(np.asarray(full_state(lay, p, jnp.asarray(v))), z, atol=1e-12)
-    assert v.shape[0] == nx + z.shape[0] - nq - ng
+    assert np.abs(reduced_residual).max() < 1e-8
+    np.testing.assert_allclose(back, z, atol=1e-12)
+    assert v.shape[0] == reduced.n_reduced(lay) + z.shape[0] - nq - ng
 
 
 def test_observation_at_rest_equals_the_general_one_at_zero_load(model4) -> None:
