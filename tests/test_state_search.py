@@ -228,3 +228,39 @@ def test_merging_equals_the_pairwise_rule() -> None:
     got = seeding.merge_rows(q, keep, tolerance)
     np.testing.assert_array_equal(got, expected)
     assert 60 < len(reps) < 600
+
+
+def test_a_state_the_eigensolver_refuses_fails_its_seed_not_the_chunk(monkeypatch):
+    """A converged seed whose reduced Hessian is not finite (the compiled eigensolver raises
+    LinAlgError: seed 396431 of the ten-module fully bistable tube on the AMD EPYC machine)
+    gets NaN observables and a failed outcome; the other seeds of its chunk are observed."""
+    from biplan.analysis.states.labels import bistable_folds
+    from biplan.solvers import observation
+
+    model = biplan.Model(biplan.designs.fully_bistable(n_modules=10))
+    folds = bistable_folds(model.tube)
+    seeds = np.array([396431, 0, 1])
+    settings = Enumeration()
+    res = seeding.evaluate(model, folds, seeds, settings)  # does not raise
+    converged, _ = seeding.outcome_masks(res, settings.stability_tolerance)
+    eig = res["min_eigenvalue"]
+    assert not np.isnan(eig[1:]).any()  # observed (inf: a contact-locked state)
+    assert converged[0] == (not np.isnan(eig[0]))
+    # the fallback, deterministically: the kernel refuses the rows of a marked state
+    z = res["z"][1:]
+    marked = z[1, 0]
+    observe = observation.observe
+
+    def refusing(model, z):  # type: ignore[no-untyped-def]
+        if np.any(z[:, 0] == marked):
+            raise np.linalg.LinAlgError("Array must not contain infs or NaNs.")
+        return observe(model, z)
+
+    monkeypatch.setattr(observation, "observe", refusing)
+    obs = seeding.observe_rows(model, z)
+    assert np.isnan(obs.min_eigenvalue[1]) and np.isnan(obs.phase_fraction[1]).all()
+    np.testing.assert_array_equal(obs.min_eigenvalue[:1], observe(model, z[:1]).min_eigenvalue)
+    assert obs.phase_fraction.shape == observe(model, z).phase_fraction.shape
+    res = {**res, "min_eigenvalue": np.array([1.0, np.nan, 1.0])}
+    converged, _ = seeding.outcome_masks(res, settings.stability_tolerance)
+    assert not converged[1]

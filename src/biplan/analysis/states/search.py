@@ -200,6 +200,8 @@ def enumerate_states(
         else:
             code = int(res["status"][i])
             message = Status(code).message if code in (0, 1, 2, 3) else ""
+            if code == Status.CONVERGED.value and np.isnan(eig):
+                message = "equilibrium whose reduced Hessian is not finite: stability unknown"
             outcome = SeedOutcome(**common, outcome=Outcome.FAILED, state=None, message=message)
         outcomes.append(outcome)
     built = tuple(

@@ -54,6 +54,7 @@ __all__ = [
     "fold_vector_index",
     "merge_rows",
     "neighbourhood",
+    "observe_rows",
     "outcome_masks",
     "relax_seeds",
     "seed_bits",
@@ -105,9 +106,10 @@ def _seed_index(bits: np.ndarray) -> np.ndarray:
 
 def outcome_masks(res: dict[str, np.ndarray], tolerance: float) -> tuple[np.ndarray, np.ndarray]:
     """(converged, stable) per seed of :func:`evaluate`'s result: a finite equilibrium whose
-    solve converged, and among those the ones with λ_min > ``tolerance`` [N·mm per unit q²]."""
+    solve converged and whose stability was evaluated (λ_min not NaN; +∞ is a contact-locked
+    state), and among those the ones with λ_min > ``tolerance`` [N·mm per unit q²]."""
     converged = (res["status"] == Status.CONVERGED.value) & np.isfinite(res["residual"])
-    converged &= np.all(np.isfinite(res["z"]), axis=1)
+    converged &= np.all(np.isfinite(res["z"]), axis=1) & ~np.isnan(res["min_eigenvalue"])
     return converged, converged & (res["min_eigenvalue"] > tolerance)
 
 
@@ -239,7 +241,7 @@ def evaluate(
         rep = merge_rows(z[:, : model.layout.n_coordinates], finite, SHARED_OBSERVATION)
         rep = np.where(finite, rep, np.arange(len(z)))
         observed = np.flatnonzero(rep == np.arange(len(z)))
-        obs = observation.observe(model, z[observed])
+        obs = observe_rows(model, z[observed])
     position = np.zeros(len(z), dtype=np.int64)
     position[observed] = np.arange(len(observed))
     obs = type(obs)(*(np.asarray(v)[position[rep]] for v in obs))
@@ -257,6 +259,31 @@ def evaluate(
         "theta": np.asarray(obs.theta, dtype=float),
         "phase_fraction": np.asarray(obs.phase_fraction, dtype=float),
     }
+
+
+def observe_rows(model: Model, z: np.ndarray) -> observation.Observation:
+    """:func:`~biplan.solvers.observation.observe` of the states ``z`` (rows); a state whose
+    reduced Hessian is not finite (the compiled eigensolver refuses it: seen on a converged
+    seed of the ten-module fully bistable tube) gets NaN observables instead of failing the
+    whole chunk. Its seed's outcome is then a failure (:func:`outcome_masks`)."""
+    try:
+        return observation.observe(model, z)
+    except np.linalg.LinAlgError:
+        pass
+    rows: list[observation.Observation | None] = []
+    for k in range(len(z)):
+        try:
+            rows.append(observation.observe(model, z[k : k + 1]))
+        except np.linalg.LinAlgError:
+            rows.append(None)
+    shape = observation.observe(model, np.zeros((1, z.shape[1])))  # the fields' shapes
+    nan = type(shape)(*(np.full(np.shape(v), np.nan) for v in shape))
+    return type(shape)(
+        *(
+            np.concatenate([np.asarray(getattr(r if r is not None else nan, f)) for r in rows])
+            for f in shape._fields
+        )
+    )
 
 
 def _concatenate(parts: list[dict[str, np.ndarray]]) -> dict[str, np.ndarray]:
