@@ -673,7 +673,7 @@ def test_resume_recomputes_a_truncated_chunk_and_says_so(
     tmp_path: Path, capsys: pytest.CaptureFixture[str], monkeypatch: pytest.MonkeyPatch
 ) -> None:
     out, calls = _two_chunk_map(tmp_path, monkeypatch)
-    chunk = out / "chunks" / "chunk-00001.nc"
+    chunk = out / "chunks" / "chunk-00001.npz"
     chunk.write_bytes(chunk.read_bytes()[:100])
     capsys.readouterr()
     with pytest.raises(SystemExit) as info:
@@ -697,7 +697,7 @@ def test_resume_without_manifest_is_refused(
     args = [*MAP, "--chunk-size", "1", "--out", out]
     _refused(capsys, [*args, "--resume"], "--out", "manifest.json", "2 chunk files")
     _refused(capsys, args, "--out", "manifest.json")  # nor overwritten without --resume
-    assert calls == [] and len(list((out / "chunks").glob("chunk-*.nc"))) == 2
+    assert calls == [] and len(list((out / "chunks").glob("chunk-*.npz"))) == 2
 
 
 def test_chunk_store_reports_missing_and_unreadable_chunks(tmp_path: Path) -> None:
@@ -707,8 +707,8 @@ def test_chunk_store_reports_missing_and_unreadable_chunks(tmp_path: Path) -> No
     store = ChunkStore(tmp_path, desc, 3, resume=False)
     for c in range(3):
         store.save(c, {"x": np.full(2, float(c))})
-    (tmp_path / "chunks" / "chunk-00001.nc").write_bytes(b"garbage")
-    (tmp_path / "chunks" / "chunk-00002.nc").unlink()
+    (tmp_path / "chunks" / "chunk-00001.npz").write_bytes(b"garbage")
+    (tmp_path / "chunks" / "chunk-00002.npz").unlink()
     again = ChunkStore(tmp_path, desc, 3, resume=True)
     assert again.reused == 1 and again.done(0) and not again.done(1) and not again.done(2)
     assert "cannot be read" in again.damaged[1] and "missing" in again.damaged[2]
@@ -716,3 +716,27 @@ def test_chunk_store_reports_missing_and_unreadable_chunks(tmp_path: Path) -> No
     (tmp_path / "manifest.json").write_text("{not json")
     with pytest.raises(biplan.ConfigError, match=r"readable manifest\.json"):
         ChunkStore(tmp_path, desc, 3, resume=True)
+
+
+def test_chunk_store_reads_back_every_array_exactly(tmp_path: Path) -> None:
+    """A chunk archive returns the arrays it was given, dtype and bits (NaN, -0.0, the last
+    ulp), and refuses an object array rather than pickling it."""
+    from biplan.io.sweepstore import ChunkStore
+
+    rng = np.random.default_rng(3)
+    arrays = {
+        "z": np.concatenate([rng.standard_normal(5), [np.nan, -0.0, np.inf, 1 + 2**-52]]),
+        "status": rng.integers(-(2**62), 2**62, size=(9, 2), dtype=np.int64),
+        "stable": rng.random(9) > 0.5,
+        "name": np.array(["00", "1B.2", "näme"] * 3),
+    }
+    store = ChunkStore(tmp_path, {"grid": [1]}, 2, resume=False)
+    store.save(0, arrays)
+    back = ChunkStore(tmp_path, {"grid": [1]}, 2, resume=True).load(0)
+    assert sorted(back) == sorted(arrays)
+    for name, arr in arrays.items():
+        assert back[name].dtype == arr.dtype and back[name].shape == arr.shape
+        assert back[name].tobytes() == arr.tobytes()
+    with pytest.raises(TypeError, match="'bad' holds Python objects"):
+        store.save(1, {"bad": np.array([{}, None], dtype=object)})
+    assert not store.done(1)
