@@ -106,11 +106,14 @@ def active_constraint_jacobian(model: Model, solution: Solution) -> np.ndarray:
 
 
 def null_space(a: np.ndarray, rtol: float = 1e-9) -> np.ndarray:
-    """Orthonormal basis (n, n − rank) of the null space of ``a`` by SVD."""
+    """Orthonormal basis (n, n − rank) of the null space of ``a`` by SVD (of R, a = Q R,
+    when LAPACK's SVD returns NaN vectors: :func:`biplan.solvers.observation.right_singular`)."""
     n = a.shape[1]
     if a.shape[0] == 0:
         return np.eye(n)
     _, sigma, vt = np.linalg.svd(a)
+    if np.all(np.isfinite(a)) and not np.all(np.isfinite(vt)):
+        _, sigma, vt = np.linalg.svd(np.linalg.qr(a, mode="r"))
     rank = int(np.sum(sigma > rtol * max(sigma.max(initial=0.0), 1e-300)))
     return vt[rank:].T.copy()
 

@@ -57,6 +57,7 @@ __all__ = [
     "observe",
     "observe_rows",
     "observe_state",
+    "right_singular",
 ]
 
 #: A contact is active when its multiplier exceeds this [N] and its gap is below ACTIVE_GAP [mm].
@@ -104,7 +105,9 @@ def min_reduced_eigenvalue(k: np.ndarray, a: np.ndarray, active: np.ndarray) -> 
     Returns
     -------
     tuple of (float, int)
-        The smallest eigenvalue of the reduced Hessian (+∞ when dim N = 0) and dim N.
+        The smallest eigenvalue of the reduced Hessian (+∞ when dim N = 0) and dim N; NaN
+        when the Hessian is not finite, and dim N = −1 when the active rows' SVD fails too
+        (:func:`right_singular`).
     """
     n = k.shape[0]
     m = 0
@@ -119,7 +122,9 @@ def min_reduced_eigenvalue(k: np.ndarray, a: np.ndarray, active: np.ndarray) -> 
             if active[i]:
                 rows[j] = a[i]
                 j += 1
-        _, s, vt = np.linalg.svd(rows, True)
+        s, vt = right_singular(rows)
+        if not (np.all(np.isfinite(s)) and np.all(np.isfinite(vt))):
+            return math.nan, -1
         top = max(s.max(), 1e-300)
         for v in s:
             if v > RANK_RTOL * top:
@@ -133,7 +138,30 @@ def min_reduced_eigenvalue(k: np.ndarray, a: np.ndarray, active: np.ndarray) -> 
     sym = 0.5 * (k + k.T)
     reduced = basis.T @ (sym @ basis)
     reduced = 0.5 * (reduced + reduced.T)
+    if not np.all(np.isfinite(reduced)):
+        return math.nan, dof
     return np.linalg.eigvalsh(reduced)[0], dof
+
+
+@kernel
+def right_singular(a: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """(σ, Vᵀ) of ``a`` (m, n): its singular values and right singular vectors (n, n).
+
+    LAPACK's divide-and-conquer SVD (``gesdd``, behind ``numpy.linalg.svd``) can return NaN
+    singular vectors for a finite rank-deficient matrix: seen on the 43 active constraint rows
+    (rank 31) of a stable state of the ten-module fully bistable tube. Then the SVD of R, where
+    a = Q R (Householder QR), is taken: it has the same singular values and right singular
+    vectors. NaN results (a non-finite ``a``, or both SVDs failing) are the caller's to report.
+    """
+    m, n = a.shape
+    if not np.all(np.isfinite(a)):
+        return np.full(min(m, n), np.nan), np.full((n, n), np.nan)
+    _, s, vt = np.linalg.svd(a, True)
+    if np.all(np.isfinite(vt)):
+        return s, vt
+    _, r = np.linalg.qr(a)
+    _, s, vt = np.linalg.svd(np.ascontiguousarray(r), True)
+    return s, vt
 
 
 @kernel(inline="always")
