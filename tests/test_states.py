@@ -19,7 +19,8 @@ from biplan.analysis.states.labels import (
     physical_folds,
 )
 from biplan.analysis.states.search import enumerate_states, relax_state, state_bits
-from biplan.analysis.states.transitions import pathway, transition_graph, write_graphml
+from biplan.analysis.states.transitions import pathway, transition_graph
+from biplan.io.graphml import write_graphml
 from biplan.model.assembly import autodiff_functions
 
 RESIDUAL_TOL = 1e-7
@@ -210,11 +211,11 @@ def test_hierarchy_counts_and_branches(catalogue4):
 
 
 def test_dataset_round_trip(catalogue4, tmp_path):
+    import xarray as xr
+
     ds = catalogue4.to_dataset()
     assert ds.attrs["kind"] == "states" and ds.attrs["n_stable"] == len(catalogue4)
     ds.to_netcdf(tmp_path / "s.nc", engine="h5netcdf")
-    import xarray as xr
-
     back = xr.load_dataset(tmp_path / "s.nc", engine="h5netcdf")
     np.testing.assert_array_equal(back["q"].values, ds["q"].values)
     assert list(back["label"].values) == [s.label for s in catalogue4.states]
@@ -231,6 +232,12 @@ def test_dataset_round_trip(catalogue4, tmp_path):
     ]
     edges = sorted(transition_graph(again).edges(data="fold_name"))
     assert edges == sorted(transition_graph(catalogue4).edges(data="fold_name"))
+    # the states alone (the endpoint figure's dataset): the same, without the seeds
+    seed_vars = [v for v in ds.data_vars if str(v).startswith("seed_")]
+    assert len(seed_vars) == 4
+    xr.testing.assert_identical(
+        catalogue4.to_dataset(seeds=False), ds.drop_vars([*seed_vars, "seed"])
+    )
 
 
 # --- R3 EDGE_FIT reading (the fully bistable design's default) ----------------------------
@@ -338,3 +345,16 @@ def test_single_fold_pairs_equal_the_pairwise_hamming_test() -> None:
     ]
     assert len(reference) > 300
     assert _single_fold_pairs(bits) == reference
+
+
+def test_labels_of_many_seeds_equal_their_one_by_one_labels() -> None:
+    """The vectorised labels of a state search's seeds equal :func:`bits_to_label` row by
+    row (every width, padded to whole hex digits); rows that are not 0/1 are refused."""
+    from biplan.analysis.states.labels import bits_to_labels
+
+    rng = np.random.default_rng(5)
+    for n in (1, 4, 7, 19, 62, 63):
+        rows = rng.integers(0, 2, (50, n))
+        assert bits_to_labels(rows) == [bits_to_label(tuple(r)) for r in rows.tolist()]
+    with pytest.raises(biplan.ConfigError, match="0/1"):
+        bits_to_labels(np.array([[0, 2, 1]]))

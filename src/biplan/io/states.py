@@ -30,8 +30,8 @@ from biplan.analysis.states import seeding
 from biplan.analysis.states.catalogue import CSV_COLUMNS, Enumeration
 from biplan.analysis.states.hierarchy import hierarchy
 from biplan.analysis.states.labels import bistable_folds
-from biplan.analysis.states.transitions import write_graphml
 from biplan.io.config import dump_config
+from biplan.io.graphml import write_graphml
 from biplan.io.netcdf import write_netcdf
 from biplan.io.sweepstore import ChunkStore
 

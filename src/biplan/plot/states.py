@@ -353,7 +353,7 @@ def write_state_figures(catalogue: StateCatalogue, graph: nx.Graph, out: Path) -
     paths, names = paper_pathways(graph)
     draw = (
         lambda: transition_diagram(graph, pathways=paths, names=names).figure,
-        lambda: endpoint_space(catalogue.to_dataset()).figure,
+        lambda: endpoint_space(catalogue.to_dataset(seeds=False)).figure,
         lambda: distributions(hierarchy(catalogue))[0].figure,
     )
     files = [out / name for name in STATE_FIGURES]

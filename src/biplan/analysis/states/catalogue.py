@@ -146,7 +146,8 @@ class SeedOutcome:
     message: str
 
     def __post_init__(self) -> None:
-        object.__setattr__(self, "outcome", Outcome(self.outcome))
+        if not isinstance(self.outcome, Outcome):
+            object.__setattr__(self, "outcome", Outcome(self.outcome))
 
     @property
     def matches_seed(self) -> bool:
@@ -221,7 +222,12 @@ class StateCatalogue:
         return tuple(s for s in self.seeds if s.outcome is Outcome.STABLE and not s.matches_seed)
 
     def rows(self) -> list[dict[str, Any]]:
-        """One dict per state with the :data:`CSV_COLUMNS`."""
+        """One dict per state with the :data:`CSV_COLUMNS` (new dicts at every call; built
+        once per catalogue)."""
+        return [dict(r) for r in self._rows]
+
+    @functools.cached_property
+    def _rows(self) -> tuple[dict[str, Any], ...]:
         out = []
         for s in self.states:
             hel, circ = self.open_counts(s)
@@ -241,10 +247,11 @@ class StateCatalogue:
                     "seeds": " ".join(s.seeds),
                 }
             )
-        return out
+        return tuple(out)
 
-    def to_dataset(self) -> Any:
-        """The catalogue as an ``xarray.Dataset`` (``attrs["kind"] = "states"``)."""
+    def to_dataset(self, seeds: bool = True) -> Any:
+        """The catalogue as an ``xarray.Dataset`` (``attrs["kind"] = "states"``); without
+        ``seeds``, only the states (no ``seed`` dimension and no ``seed_*`` variables)."""
         import xarray as xr
 
         n_q = self.model.layout.n_coordinates
@@ -265,25 +272,22 @@ class StateCatalogue:
             ("state", "fold", "phase"),
             np.asarray([s.phase_fraction for s in self.states]).reshape(len(rows), -1, 3),
         )
-        data["seed_outcome"] = (("seed",), np.asarray([s.outcome.value for s in self.seeds]))
-        data["seed_state"] = (("seed",), np.asarray([s.state or "" for s in self.seeds]))
-        data["seed_reached"] = (
-            ("seed",),
-            np.asarray(["".join(map(str, s.reached_bits)) for s in self.seeds]),
-        )
-        data["seed_min_eigenvalue"] = (
-            ("seed",),
-            np.asarray([s.min_eigenvalue for s in self.seeds]),
-        )
-        ds = xr.Dataset(
-            data,
-            coords={
-                "state": names,
-                "seed": [s.seed for s in self.seeds],
-                "fold": list(self.model.layout.fold_names),
-                "phase": ["closed", "spinodal", "open"],
-            },
-        )
+        coords: dict[str, Any] = {"state": names}
+        if seeds:
+            data["seed_outcome"] = (("seed",), np.asarray([s.outcome.value for s in self.seeds]))
+            data["seed_state"] = (("seed",), np.asarray([s.state or "" for s in self.seeds]))
+            data["seed_reached"] = (
+                ("seed",),
+                np.asarray(["".join(map(str, s.reached_bits)) for s in self.seeds]),
+            )
+            data["seed_min_eigenvalue"] = (
+                ("seed",),
+                np.asarray([s.min_eigenvalue for s in self.seeds]),
+            )
+            coords["seed"] = [s.seed for s in self.seeds]
+        coords["fold"] = list(self.model.layout.fold_names)
+        coords["phase"] = ["closed", "spinodal", "open"]
+        ds = xr.Dataset(data, coords=coords)
         units = {
             "energy": "N mm",
             "u_z": "mm",

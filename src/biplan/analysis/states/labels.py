@@ -12,6 +12,8 @@ from __future__ import annotations
 import re
 from collections.abc import Sequence
 
+import numpy as np
+
 from biplan._errors import ConfigError
 from biplan.geometry import FoldRef
 from biplan.model.tube import Tube
@@ -19,6 +21,7 @@ from biplan.model.tube import Tube
 __all__ = [
     "bistable_folds",
     "bits_to_label",
+    "bits_to_labels",
     "hamming",
     "label_to_bits",
     "physical_folds",
@@ -64,6 +67,24 @@ def bits_to_label(bits: Sequence[int]) -> str:
     digits = (len(bits) + 3) // 4
     value = int("".join(str(int(b)) for b in bits), 2)
     return f"{value:0{digits}X}"
+
+
+def bits_to_labels(bits: np.ndarray) -> list[str]:
+    """:func:`bits_to_label` of every row of ``bits`` (k, n), vectorised (a state search
+    labels every seed).
+
+    >>> bits_to_labels(np.array([[0, 0, 1, 1, 0, 1, 1], [1, 0, 0, 0, 0, 0, 0]]))
+    ['1B', '40']
+    """
+    bits = np.asarray(bits)
+    if bits.ndim != 2 or bits.shape[1] == 0 or not np.isin(bits, (0, 1)).all():
+        raise ConfigError("bits", bits.shape, "rows of a non-empty sequence of 0/1")
+    n = bits.shape[1]
+    if n > 62:  # beyond int64
+        return [bits_to_label(row) for row in bits.tolist()]
+    values = bits.astype(np.int64) @ (np.int64(1) << np.arange(n - 1, -1, -1, dtype=np.int64))
+    digits = (n + 3) // 4
+    return [f"{v:0{digits}X}" for v in values.tolist()]
 
 
 def label_to_bits(label: str, n_bits: int) -> tuple[int, ...]:

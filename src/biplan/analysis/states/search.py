@@ -36,7 +36,12 @@ from biplan.analysis.states.catalogue import (
     StableState,
     StateCatalogue,
 )
-from biplan.analysis.states.labels import bistable_folds, bits_to_label, label_to_bits
+from biplan.analysis.states.labels import (
+    bistable_folds,
+    bits_to_label,
+    bits_to_labels,
+    label_to_bits,
+)
 from biplan.analysis.states.seeding import Search, fold_vector_index, relax_seeds, seed_targets
 from biplan.model.assembly import Load, Model
 from biplan.solvers import fractions
@@ -174,27 +179,34 @@ def enumerate_states(
     state_of = seeding.merge_rows(z[:, :nq], stable, settings.duplicate_tolerance)
     unstable_of = seeding.merge_rows(z[:, :nq], converged & ~stable, settings.duplicate_tolerance)
     reps = np.flatnonzero(state_of == np.arange(len(z)))
-    names = _names([tuple(int(b) for b in res["reached"][i]) for i in reps])
+    reached_rows = [tuple(b) for b in np.asarray(res["reached"]).tolist()]
+    labels = bits_to_labels(np.asarray(res["reached"])[reps]) if reps.size else []
+    names = _names(labels)
     name_of = dict(zip(reps.tolist(), names, strict=True))
+    label_of = dict(zip(reps.tolist(), labels, strict=True))
     seeds_of: dict[int, list[str]] = {int(r): [] for r in reps}
     outcomes = []
     all_seed_bits = seeding.seed_bits(res["seed"], len(folds))
+    seed_labels = bits_to_labels(all_seed_bits)
+    seed_bit_rows = [tuple(b) for b in all_seed_bits.tolist()]
+    eigenvalues = np.asarray(res["min_eigenvalue"], dtype=float).tolist()
+    residuals = np.asarray(res["residual"], dtype=float).tolist()
+    stable_rows, converged_rows, state_rows = stable.tolist(), converged.tolist(), state_of.tolist()
     for i in range(len(z)):
-        seed_bits = tuple(int(b) for b in all_seed_bits[i])
-        eig = float(res["min_eigenvalue"][i])
+        eig = eigenvalues[i]
         common: dict[str, Any] = {
-            "seed": bits_to_label(seed_bits),
-            "seed_bits": seed_bits,
-            "reached_bits": tuple(int(b) for b in res["reached"][i]),
+            "seed": seed_labels[i],
+            "seed_bits": seed_bit_rows[i],
+            "reached_bits": reached_rows[i],
             "min_eigenvalue": eig,
-            "residual": float(res["residual"][i]),
+            "residual": residuals[i],
         }
-        if stable[i]:
-            seeds_of[int(state_of[i])].append(common["seed"])
+        if stable_rows[i]:
+            seeds_of[state_rows[i]].append(common["seed"])
             outcome = SeedOutcome(
-                **common, outcome=Outcome.STABLE, state=name_of[int(state_of[i])], message=""
+                **common, outcome=Outcome.STABLE, state=name_of[state_rows[i]], message=""
             )
-        elif converged[i]:
+        elif converged_rows[i]:
             message = f"equilibrium with λ_min = {eig:.3g} N·mm ≤ {settings.stability_tolerance:g}"
             outcome = SeedOutcome(**common, outcome=Outcome.UNSTABLE, state=None, message=message)
         else:
@@ -207,8 +219,8 @@ def enumerate_states(
     built = tuple(
         StableState(
             name=name_of[int(i)],
-            label=bits_to_label(tuple(int(b) for b in res["reached"][i])),
-            bits=tuple(int(b) for b in res["reached"][i]),
+            label=label_of[int(i)],
+            bits=reached_rows[i],
             q=z[i, :nq].copy(),
             z=z[i].copy(),
             energy=float(res["energy"][i]),
@@ -234,12 +246,11 @@ def enumerate_states(
     )
 
 
-def _names(bits: list[tuple[int, ...]]) -> list[str]:
+def _names(labels: list[str]) -> list[str]:
     """Unique state names: the label, suffixed ``.2``, ``.3``… for repeated bits."""
     seen: dict[str, int] = {}
     names = []
-    for b in bits:
-        label = bits_to_label(b)
+    for label in labels:
         seen[label] = seen.get(label, 0) + 1
         names.append(label if seen[label] == 1 else f"{label}.{seen[label]}")
     return names
