@@ -8,7 +8,13 @@
   bistable tube of ``--modules`` modules, written by the streamed writer against
   ``networkx.write_graphml`` (the baseline), the same file byte for byte.
 
+* **After the search** (``--run DIR --config TOML``): the stages of ``biplan states`` after
+  the seeds, on the finished chunks of an earlier run in ``DIR`` (``DIR/seeds``): the catalogue
+  of every seed (``enumerate_states`` on the loaded chunks, their loading apart), the
+  transition graph, the data files and the figures, written to ``DIR/bench``.
+
 Run:  .venv/bin/python benchmarks/bench_state_files.py [--modules 8] [--repeats 20]
+      .venv/bin/python benchmarks/bench_state_files.py --run states10 --config fb10.toml
 """
 
 from __future__ import annotations
@@ -65,11 +71,48 @@ def _best(fn, repeats: int) -> float:  # type: ignore[no-untyped-def]
     return min(times), statistics.median(times)
 
 
+def after_search(run: Path, config: Path) -> None:
+    """Time the stages of ``biplan states`` after the seeds, on a finished run's chunks."""
+    from biplan.analysis.states import seeding
+    from biplan.analysis.states.search import enumerate_states
+    from biplan.io.states import seed_store, write_state_files
+    from biplan.plot.states import write_state_figures
+
+    model = biplan.Model(biplan.load_config(config))
+    t0 = time.perf_counter()
+    sink = seed_store(model, run, seeding.Search.EXHAUSTIVE, confirm=True, resume=True)
+    loaded = time.perf_counter() - t0
+    if sink is None or sink.reused < sink.n_chunks:
+        raise SystemExit(f"{run}/seeds does not hold a finished exhaustive search of {config}")
+    t0 = time.perf_counter()
+    catalogue = enumerate_states(model, sink=sink, confirm=True)
+    stages = {"chunks loaded": loaded, "catalogue": time.perf_counter() - t0}
+    t0 = time.perf_counter()
+    graph = transition_graph(catalogue)
+    stages["transition graph"] = time.perf_counter() - t0
+    t0 = time.perf_counter()
+    write_state_files(catalogue, graph, run / "bench")
+    stages["data files"] = time.perf_counter() - t0
+    t0 = time.perf_counter()
+    write_state_figures(catalogue, graph, run / "bench")
+    stages["figures"] = time.perf_counter() - t0
+    print(f"{len(catalogue)} states from {len(catalogue.seeds)} seeds")
+    for name, seconds in stages.items():
+        print(f"  {name:18s} {seconds:6.2f} s")
+
+
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--modules", type=int, default=8, help="fully bistable modules (graph)")
     parser.add_argument("--repeats", type=int, default=20, help="chunk writes of each kind")
+    parser.add_argument("--run", type=Path, help="a finished `biplan states` output directory")
+    parser.add_argument("--config", type=Path, help="its tube configuration (TOML)")
     args = parser.parse_args()
+    if args.run is not None or args.config is not None:
+        if args.run is None or args.config is None:
+            parser.error("--run and --config go together")
+        after_search(args.run, args.config)
+        return
     result = _chunk()
     with tempfile.TemporaryDirectory() as tmp:
         folder = Path(tmp)

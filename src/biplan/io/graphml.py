@@ -1,13 +1,13 @@
-"""GraphML files of transition graphs, written as a stream.
+"""GraphML files of transition graphs, written without an XML tree.
 
 :func:`write_graphml` writes the file that ``networkx.write_graphml`` writes for the same
 graph, byte for byte (``tests/test_io_graphml.py``): the same keys (``d0``, ``d1``, … in the
 order networkx creates them, listed newest first), types (``string``, ``long``, ``double``,
 ``boolean``; ``float`` for a NumPy float64), escaping and indentation. networkx builds the whole
-document as an XML element tree, indents it and serialises it: 6 s for the 7,986 states and
-46,343 edges of the eight-module fully bistable tube, about a minute for the ten-module one
-(165 MB). Here each node and edge is formatted once and written
-(``benchmarks/bench_state_files.py``).
+document as an XML element tree, indents it and serialises it: 1.9–2.1 s for the 7,986 states
+and 46,343 edges of the eight-module fully bistable tube, against 0.25–0.34 s here, where each
+node and edge is formatted once (``benchmarks/bench_state_files.py``; the ten-module graph,
+165 MB, takes about 4 s).
 
 Attribute values that GraphML cannot hold are written as their ``str`` (a string attribute);
 ``None`` values are left out.
