@@ -740,3 +740,25 @@ def test_chunk_store_reads_back_every_array_exactly(tmp_path: Path) -> None:
     with pytest.raises(TypeError, match="'bad' holds Python objects"):
         store.save(1, {"bad": np.array([{}, None], dtype=object)})
     assert not store.done(1)
+
+
+def test_chunk_store_resumes_the_netcdf_chunks_of_an_earlier_version(tmp_path: Path) -> None:
+    """A run of an earlier biplan stored its chunks as netCDF files; a resumed run reads them
+    (the same arrays) instead of computing them again, and writes new chunks as archives."""
+    import xarray as xr
+
+    from biplan.io.netcdf import write_netcdf
+    from biplan.io.sweepstore import ChunkStore
+
+    desc = {"grid": [1, 2]}
+    store = ChunkStore(tmp_path, desc, 2, resume=False)
+    store.save(0, {"x": np.array([0.5, -1.0]), "n": np.array([[1, 2]] * 2)})
+    (tmp_path / "chunks" / "chunk-00000.npz").unlink()
+    old = xr.Dataset({"x": (("point",), [0.5, -1.0]), "n": (("point", "n_1"), [[1, 2]] * 2)})
+    write_netcdf(old, tmp_path / "chunks" / "chunk-00000.nc")
+    again = ChunkStore(tmp_path, desc, 2, resume=True)
+    assert again.reused == 1 and not again.damaged
+    np.testing.assert_array_equal(again.load(0)["x"], [0.5, -1.0])
+    np.testing.assert_array_equal(again.load(0)["n"], [[1, 2]] * 2)
+    again.save(1, {"x": np.zeros(2), "n": np.zeros((2, 2), dtype=np.int64)})
+    assert (tmp_path / "chunks" / "chunk-00001.npz").exists()

@@ -4,7 +4,8 @@ Layout of an output directory::
 
     DIR/manifest.json          what is being computed (config, grid, quantity, chunk size)
                                and which chunks are finished
-    DIR/chunks/chunk-00012.npz one NumPy archive per finished chunk (flat point axis)
+    DIR/chunks/chunk-00012.npz one NumPy archive per finished chunk (flat point axis; a run
+                               of an earlier biplan, resumed, has netCDF files, read as well)
     DIR/map.nc                 the merged, labelled Dataset once every chunk is finished
 
 A chunk file is written to a temporary name and renamed, then the manifest is rewritten the
@@ -168,7 +169,7 @@ class ChunkStore:
         """Keep the finished chunks of an earlier run that read back; the others are
         recorded in :attr:`damaged` (and computed again)."""
         for chunk in finished:
-            if not self._path(chunk).exists():
+            if not (self._path(chunk).exists() or self._netcdf_path(chunk).exists()):
                 self.damaged[chunk] = "its file is missing"
                 continue
             try:
@@ -223,7 +224,16 @@ class ChunkStore:
             return self._loaded[chunk]
         return self._read(chunk)
 
+    def _netcdf_path(self, chunk: int) -> Path:
+        """Where biplan before the archives wrote the chunk (a netCDF file)."""
+        return self.chunk_dir / f"chunk-{chunk:05d}.nc"
+
     def _read(self, chunk: int) -> dict[str, np.ndarray]:
+        if not self._path(chunk).exists() and self._netcdf_path(chunk).exists():
+            import xarray as xr  # a run of an earlier biplan, resumed
+
+            with xr.open_dataset(self._netcdf_path(chunk), engine="h5netcdf") as ds:
+                return {str(name): np.asarray(ds[name].values) for name in ds.data_vars}
         archive = np.load(self._path(chunk), allow_pickle=False)
         if not isinstance(archive, np.lib.npyio.NpzFile):
             raise ValueError("not a chunk archive (.npz)")
