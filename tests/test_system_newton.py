@@ -93,3 +93,13 @@ def test_non_finite_start_ends_at_once(model6, reference6):
     assert steps == 0 and not np.isfinite(f)
     np.testing.assert_array_equal(z, start)
     assert jac.shape == (start.size, start.size)
+
+
+
+def test_a_start_of_the_wrong_length_is_refused(model6, reference6):
+    """The compiled loop would read past a short start: it is refused before the call."""
+    s = iteration.newton_settings(1e-9, 30, 8, 1e-4, 0)
+    system = model6.system(Load(0.5, 0.0, 0.0))
+    for start in (reference6.z[:-1], np.append(reference6.z, 0.0), reference6.z[None]):
+        with pytest.raises(ValueError, match=f"the system has {system.n_unknowns} unknowns"):
+            iteration.solve_system(system, start, s)

@@ -211,11 +211,18 @@ def newton(
 
 def solve_system(system: Any, z0: np.ndarray, settings: NewtonSettings) -> tuple:  # type: ignore[type-arg]
     """:func:`newton` on a :class:`~biplan.model.system.System` (its data and load) from z0,
-    called from Python (through :func:`solve`, which is compiled on its own)."""
+    called from Python (through :func:`solve`, which is compiled on its own). Raises
+    ValueError for a start that is not a vector of the system's ``n_unknowns`` (the compiled
+    loop would read past it)."""
+    start = kernel_array(z0, float)
+    if start.shape != (system.n_unknowns,):
+        raise ValueError(
+            f"start of shape {start.shape}: the system has {system.n_unknowns} unknowns"
+        )
     return solve(  # type: ignore[no-any-return]
         system.data,
         system.load,
-        kernel_array(z0, float),
+        start,
         settings,
         NO_BORDER,
         0.0,
