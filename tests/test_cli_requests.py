@@ -762,3 +762,28 @@ def test_chunk_store_resumes_the_netcdf_chunks_of_an_earlier_version(tmp_path: P
     np.testing.assert_array_equal(again.load(0)["n"], [[1, 2]] * 2)
     again.save(1, {"x": np.zeros(2), "n": np.zeros((2, 2), dtype=np.int64)})
     assert (tmp_path / "chunks" / "chunk-00001.npz").exists()
+
+
+def test_states_resume_says_what_it_reuses_and_recomputes(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    """``biplan states --resume`` over a damaged chunk names it on stderr, computes it again
+    and says how many chunks it reused; the states are those of the first run."""
+    config = Path(__file__).parents[1] / "examples" / "fully_bistable_4.toml"
+    out = tmp_path / "s"
+    args = ["states", str(config), "--out", str(out), "--quiet"]
+    with pytest.raises(SystemExit) as info:
+        main(args)
+    assert info.value.code == 0
+    first = (out / "states.csv").read_text()
+    chunk = out / "seeds" / "chunks" / "chunk-00000.npz"
+    chunk.write_bytes(chunk.read_bytes()[:64])
+    capsys.readouterr()
+    with pytest.raises(SystemExit) as info:
+        main([*args[:-1], "--resume"])
+    captured = capsys.readouterr()
+    assert info.value.code == 0, captured.err
+    assert "chunk 0 of" in captured.err and "cannot be read" in captured.err
+    assert "computing it again" in captured.err
+    assert "0 of 1 chunks of seeds reused" in captured.out
+    assert (out / "states.csv").read_text() == first

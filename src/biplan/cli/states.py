@@ -141,6 +141,8 @@ def states(
     model = biplan.Model(biplan.load_config(config))
     with options_named({"search": "--search", "model": "CONFIG", "out": "--out"}):
         sink = seed_store(model, out, method, confirm=yes, resume=resume)
+    if sink is not None and resume:
+        _report_resume(sink, out, quiet)
     runner = None
     if scheduler is not None or workers > 1:
         from biplan.analysis.scaleout import dask_runner
@@ -180,6 +182,27 @@ def states(
 
 #: Most state names the summary lists (the rest are in states.csv).
 LISTED_NAMES = 100
+#: Most damaged chunks a resumed search names (the others are counted).
+LISTED_DAMAGED = 5
+
+
+def _report_resume(sink: Any, out: Path, quiet: bool) -> None:
+    """How much of a killed search is reused: the chunks it computes again and why, on
+    stderr (also when ``quiet``), and the chunks reused."""
+    from rich.markup import escape
+
+    err = Console(stderr=True, highlight=False)
+    damaged = sorted(sink.damaged.items())
+    for chunk, why in damaged[:LISTED_DAMAGED]:
+        err.print(
+            f"[yellow]warning:[/] chunk {chunk} of {escape(str(out))}/seeds: {escape(why)}; "
+            "computing it again"
+        )
+    if len(damaged) > LISTED_DAMAGED:
+        err.print(f"[yellow]warning:[/] {len(damaged) - LISTED_DAMAGED} more chunks computed again")
+    Console(quiet=quiet, highlight=False).print(
+        f"{sink.reused} of {sink.n_chunks} chunks of seeds reused from {escape(str(out))}/seeds"
+    )
 
 
 def _listed(names: tuple[str, ...]) -> str:
