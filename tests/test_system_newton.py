@@ -95,7 +95,6 @@ def test_non_finite_start_ends_at_once(model6, reference6):
     assert jac.shape == (start.size, start.size)
 
 
-
 def test_a_start_of_the_wrong_length_is_refused(model6, reference6):
     """The compiled loop would read past a short start: it is refused before the call."""
     s = iteration.newton_settings(1e-9, 30, 8, 1e-4, 0)
