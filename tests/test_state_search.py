@@ -282,3 +282,26 @@ def test_a_state_whose_active_rows_lapack_svd_spoils_is_observed():
     res = {**res, "min_eigenvalue": np.array([1.0, np.nan])}
     converged, _ = seeding.outcome_masks(res, settings.stability_tolerance)
     assert converged[0] and not converged[1]
+
+
+def test_merging_a_state_most_seeds_reach_equals_the_pairwise_rule() -> None:
+    """Most rows at one state (within 10⁻⁹), a few elsewhere, some between: the blocked
+    merge gives the pairwise rule's representatives (each row is compared with the
+    representatives near it, not with every row near it)."""
+    rng = np.random.default_rng(4)
+    n = 6000
+    q = rng.uniform(-1e-9, 1e-9, (n, 5))
+    others = rng.random(n) < 0.05
+    q[others] += rng.uniform(-1.0, 1.0, (others.sum(), 5)).round(1)  # a few hundred states
+    q[::97, 2] += 7e-6  # within the tolerance of the main state, beyond it of its neighbours
+    keep = rng.random(n) > 0.02
+    tolerance = 1e-5
+    expected = np.full(n, -1)
+    reps: list[int] = []
+    for i in np.flatnonzero(keep):
+        hits = [r for r in reps if np.max(np.abs(q[r] - q[i])) < tolerance]
+        expected[i] = min(hits) if hits else i
+        if not hits:
+            reps.append(i)
+    np.testing.assert_array_equal(seeding.merge_rows(q, keep, tolerance), expected)
+    assert 10 < len(reps) < 400

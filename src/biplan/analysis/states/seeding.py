@@ -190,11 +190,14 @@ def merge_rows(q: np.ndarray, keep: np.ndarray, tolerance: float) -> np.ndarray:
     is a representative and has max |q_r − q_i| < tolerance (i itself when none); −1 for rows
     not kept.
 
-    Candidates come from a sorted projection p = q·w (fixed positive weights, Σw = 1): rows
-    within the tolerance in the max norm are within it in p, so each row is compared only with
-    the earlier rows of its window in p, all pairs at once (:func:`_close_pairs`); the
-    representatives are then settled in row order (O(k log k) for well-separated states:
-    about a second for the 5·10⁵ seeds of N = 10).
+    The rows go in blocks of :data:`_BLOCK`. A row of a block is first compared with the
+    representatives of the earlier blocks, then (if none is close) with the earlier such rows
+    of its block, whose representatives are settled in row order. Candidates come from a
+    sorted projection p = q·w (fixed signed weights, Σ|w| = 1: rows within the tolerance in
+    the max norm are within it in p) and are screened by three more projections before the
+    full comparison (:func:`_close_pairs`). Each row meets the representatives near it, not
+    every row near it, so a state reached by most of the seeds costs no more than any other:
+    0.7–0.9 s for the 5·10⁵ seeds of N = 10 (``benchmarks/bench_state_files.py --run``).
     """
     out = np.full(len(q), -1, dtype=np.int64)
     rows = np.flatnonzero(keep)
@@ -205,63 +208,67 @@ def merge_rows(q: np.ndarray, keep: np.ndarray, tolerance: float) -> np.ndarray:
     shape = (x.shape[1], _PROJECTIONS)
     w = rng.uniform(0.5, 1.5, shape) * rng.choice((-1.0, 1.0), shape)  # signed: spread out
     p = x @ (w / np.abs(w).sum(axis=0))
-    order = np.argsort(p[:, 0], kind="stable")
-    sorted_p = p[order, 0]
-    lo = np.searchsorted(sorted_p, p[:, 0] - tolerance, side="left")
-    hi = np.searchsorted(sorted_p, p[:, 0] + tolerance, side="right")
-    rep_of = list(range(rows.size))
-    for a, c in _close_pairs(x, p, order, lo, hi, tolerance):
-        # pairs (a, c), c < a, ordered by a then c: a joins its first close representative
-        k, n = 0, len(a)
-        while k < n:
-            row, found = a[k], -1
-            while k < n and a[k] == row:
-                if found < 0 and rep_of[c[k]] == c[k]:
-                    found = c[k]
-                k += 1
-            if found >= 0:
-                rep_of[row] = found
-    out[rows] = rows[np.asarray(rep_of, dtype=np.int64)]
+    rep_of = np.arange(rows.size)
+    reps = np.zeros(0, dtype=np.int64)  # representatives so far, sorted by p[:, 0]
+    for b0 in range(0, rows.size, _BLOCK):
+        block = np.arange(b0, min(b0 + _BLOCK, rows.size))
+        a, c = _close_pairs(x, p, block, reps, tolerance)
+        first = np.full(block.size, rows.size)
+        np.minimum.at(first, a - b0, c)
+        found = first < rows.size
+        rep_of[block[found]] = first[found]
+        open_rows = block[~found]  # no earlier representative close: settled in the block
+        by_p = open_rows[np.argsort(p[open_rows, 0], kind="stable")]
+        a, c = _close_pairs(x, p, open_rows, by_p, tolerance)
+        earlier = c < a
+        a, c = a[earlier], c[earlier]
+        by_row = np.lexsort((c, a))
+        _settle(rep_of, a[by_row].tolist(), c[by_row].tolist())
+        new = by_p[rep_of[by_p] == by_p]  # sorted by p[:, 0], as reps
+        at = np.searchsorted(p[reps, 0], p[new, 0], side="right")
+        reps = np.insert(reps, at, new)
+    out[rows] = rows[rep_of]
     return out
 
 
-#: Candidate pairs that :func:`merge_rows` compares at once (bounds its memory), and the
-#: projections that screen them before the full comparison.
-_PAIR_BLOCK = 1 << 20
+#: Rows per block of :func:`merge_rows`, and the projections that screen candidate pairs.
+_BLOCK = 2048
 _PROJECTIONS = 4
 
 
+def _settle(rep_of: np.ndarray, a: list[int], c: list[int]) -> None:
+    """Pairs (a, c) of close rows, c < a, ordered by a then c: in row order, a joins its first
+    close representative (rep_of[c] == c), if any."""
+    k, n = 0, len(a)
+    while k < n:
+        row, found = a[k], -1
+        while k < n and a[k] == row:
+            if found < 0 and rep_of[c[k]] == c[k]:
+                found = c[k]
+            k += 1
+        if found >= 0:
+            rep_of[row] = found
+
+
 def _close_pairs(
-    x: np.ndarray,
-    p: np.ndarray,
-    order: np.ndarray,
-    lo: np.ndarray,
-    hi: np.ndarray,
-    tolerance: float,
-) -> Iterator[tuple[list[int], list[int]]]:
-    """Blocks of (a, c) with c < a in a's window ``order[lo[a]:hi[a]]`` and
-    max |x_c − x_a| < tolerance, ordered by a then c; the blocks in increasing a. Pairs
-    further apart than the tolerance in a projection ``p`` (weights Σ|w| = 1, so
-    |Δp| ≤ max |Δx|) are dropped before the full comparison."""
-    sizes = hi - lo
-    ends = np.cumsum(sizes)
-    a0 = 0
-    while a0 < len(x):
-        a1 = max(a0 + 1, int(np.searchsorted(ends, ends[a0] - sizes[a0] + _PAIR_BLOCK, "right")))
-        size = sizes[a0:a1]
-        first = np.repeat(ends[a0:a1] - size, size)
-        c = order[np.repeat(lo[a0:a1], size) + np.arange(first.size) - (first - first[:1])]
-        a = np.repeat(np.arange(a0, a1), size)
-        earlier = c < a
-        a, c = a[earlier], c[earlier]
-        for k in range(1, p.shape[1]):
-            near = np.abs(p[c, k] - p[a, k]) <= tolerance
-            a, c = a[near], c[near]
-        close = np.max(np.abs(x[c] - x[a]), axis=1, initial=0.0) < tolerance
-        a, c = a[close], c[close]
-        by_row = np.lexsort((c, a))
-        yield a[by_row].tolist(), c[by_row].tolist()
-        a0 = a1
+    x: np.ndarray, p: np.ndarray, rows: np.ndarray, candidates: np.ndarray, tolerance: float
+) -> tuple[np.ndarray, np.ndarray]:
+    """Every (a, c), a in ``rows`` and c in ``candidates`` (sorted by p[:, 0]), with
+    max |x_c − x_a| < tolerance: c within the tolerance of a in p[:, 0] (a window of the
+    sorted candidates), then in each other projection (weights Σ|w| = 1, so
+    |Δp| ≤ max |Δx|), then in every coordinate."""
+    sorted_p = p[candidates, 0]
+    lo = np.searchsorted(sorted_p, p[rows, 0] - tolerance, side="left")
+    hi = np.searchsorted(sorted_p, p[rows, 0] + tolerance, side="right")
+    size = hi - lo
+    a = np.repeat(rows, size)
+    start = np.repeat(lo - np.cumsum(size) + size, size)
+    c = candidates[start + np.arange(a.size)]
+    for k in range(1, p.shape[1]):
+        near = np.abs(p[c, k] - p[a, k]) <= tolerance
+        a, c = a[near], c[near]
+    close = np.max(np.abs(x[c] - x[a]), axis=1, initial=0.0) < tolerance
+    return a[close], c[close]
 
 
 def evaluate(
