@@ -208,6 +208,21 @@ def test_at_rest_assembly_equals_the_general_one_at_zero_load(which, model2fb, m
     np.testing.assert_allclose(j_rest, j, rtol=0, atol=1e-12)
 
 
+def _pairwise_merge(
+    q: np.ndarray, keep: np.ndarray, tolerance: float
+) -> tuple[np.ndarray, list[int]]:
+    """The merge rule written pairwise: each kept row joins the first earlier representative
+    within the tolerance (max norm), or is one; (rep of each row, −1 if not kept; the reps)."""
+    expected = np.full(len(q), -1)
+    reps: list[int] = []
+    for i in np.flatnonzero(keep):
+        hits = [r for r in reps if np.max(np.abs(q[r] - q[i])) < tolerance]
+        expected[i] = min(hits) if hits else i
+        if not hits:
+            reps.append(i)
+    return expected, reps
+
+
 def test_merging_equals_the_pairwise_rule() -> None:
     """merge_rows (candidates from a sorted projection) against the rule written pairwise:
     each kept row joins the first earlier representative within the tolerance (max norm)."""
@@ -218,13 +233,7 @@ def test_merging_equals_the_pairwise_rule() -> None:
     q[::11, 3] += 2e-5  # beyond it in one coordinate only
     keep = rng.random(600) > 0.1
     tolerance = 1e-5
-    expected = np.full(600, -1)
-    reps: list[int] = []
-    for i in np.flatnonzero(keep):
-        hits = [r for r in reps if np.max(np.abs(q[r] - q[i])) < tolerance]
-        expected[i] = min(hits) if hits else i
-        if not hits:
-            reps.append(i)
+    expected, reps = _pairwise_merge(q, keep, tolerance)
     got = seeding.merge_rows(q, keep, tolerance)
     np.testing.assert_array_equal(got, expected)
     assert 60 < len(reps) < 600
@@ -296,12 +305,6 @@ def test_merging_a_state_most_seeds_reach_equals_the_pairwise_rule() -> None:
     q[::97, 2] += 7e-6  # within the tolerance of the main state, beyond it of its neighbours
     keep = rng.random(n) > 0.02
     tolerance = 1e-5
-    expected = np.full(n, -1)
-    reps: list[int] = []
-    for i in np.flatnonzero(keep):
-        hits = [r for r in reps if np.max(np.abs(q[r] - q[i])) < tolerance]
-        expected[i] = min(hits) if hits else i
-        if not hits:
-            reps.append(i)
+    expected, reps = _pairwise_merge(q, keep, tolerance)
     np.testing.assert_array_equal(seeding.merge_rows(q, keep, tolerance), expected)
     assert 10 < len(reps) < 400
