@@ -213,7 +213,10 @@ def enumerate_states(
             code = int(res["status"][i])
             message = Status(code).message if code in (0, 1, 2, 3) else ""
             if code == Status.CONVERGED.value and np.isnan(eig):
-                message = "equilibrium whose reduced Hessian is not finite: stability unknown"
+                message = (
+                    "equilibrium whose stability could not be evaluated (its reduced Hessian or "
+                    "its active constraints' SVD is not finite)"
+                )
             outcome = SeedOutcome(**common, outcome=Outcome.FAILED, state=None, message=message)
         outcomes.append(outcome)
     built = tuple(
