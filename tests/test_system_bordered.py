@@ -15,6 +15,7 @@ import pytest
 import biplan
 from biplan.model.params import Load
 from biplan.model.system import assemble, ordering
+from biplan.options import ChainOffset, ContactForm, ModelOptions
 from biplan.solvers import bordered, iteration
 from biplan.solvers.levenberg import lm_direction
 from conftest import make_tube
@@ -203,6 +204,45 @@ def test_the_jacobian_is_written_in_place_and_within_the_pattern(tube_model):
         assert np.max(np.abs(jac[rows[outside], cols[outside]]), initial=0.0) <= 1e-14 * np.max(
             np.abs(jac)
         )
+
+
+@pytest.mark.parametrize(
+    "tube",
+    [
+        lambda: make_tube(6),
+        lambda: biplan.designs.fully_bistable(n_modules=5),
+        lambda: biplan.designs.semi_bistable(ModelOptions(contact=ContactForm.MINIMUM)),
+        lambda: make_tube(4).with_options(chain_offset=ChainOffset.PAPER),
+    ],
+    ids=["uniform", "fully bistable, edge fit", "minimum contact", "paper chain offset"],
+)
+def test_the_pattern_of_one_load_is_the_union_of_the_force_and_displacement_patterns(tube):
+    """ordering.PATTERN_LOAD (an end force with the control half-way) carries every entry of
+    the Jacobians under a force alone and under displacement control alone, at the random
+    states jacobian_pattern draws, and no other but rounding: terms of the chain that cancel
+    (at most 1e-14 of the largest entry) come and go with the load."""
+    data = biplan.Model(tube()).system().data
+    n_q, n_g, n_c = (int(v) for v in data.sizes)
+    n_z = n_q + n_g + n_c + 1
+    rng = np.random.default_rng(0)  # the states of jacobian_pattern(data, seed=0)
+    union = np.zeros((n_z, n_z), dtype=bool)
+    structural = np.zeros((n_z, n_z), dtype=bool)  # the union without rounding
+    mixed = np.zeros((n_z, n_z))  # |J| under PATTERN_LOAD, the larger of the two states
+    for _ in range(2):
+        z = np.concatenate([rng.uniform(-0.1, 0.1, n_q), rng.uniform(0.5, 1.0, n_g + n_c + 1)])
+        for load in ((1.0, 0.0, 0.0), (0.0, 0.5, 1.0), ordering.PATTERN_LOAD):
+            out = assemble.evaluate_into(data, z, np.array(load), True, np.zeros((n_z, n_z)))
+            jac = np.abs(out[1])
+            if load == ordering.PATTERN_LOAD:
+                mixed = np.maximum(mixed, jac / jac.max())
+            else:
+                union |= jac != 0.0
+                structural |= jac > 1e-14 * jac.max()
+    pattern = ordering.jacobian_pattern(data).toarray()
+    assert structural[n_z - 1, :n_q].any() and structural[:n_q, n_z - 1].any()  # u control
+    assert not (structural & ~(pattern | pattern.T)).any()
+    extra = pattern & ~(union | union.T)
+    assert np.all(np.maximum(mixed, mixed.T)[extra] <= 1e-14)
 
 
 def test_layout_by_size():

@@ -2,10 +2,10 @@
 
 :func:`solve_layout` finds, once per tube layout, the structure that
 :mod:`biplan.solvers.bordered` exploits: the structural pattern of ∂r/∂z (the union of the
-Jacobians at two random states, each under an end force and under displacement control, so
-that the chain term and the end constraint's row and column are in it), its border (the unknowns
-whose rows couple more than a few others, taken greedily: the frame angles α_c of the chain
-term and the multiplier μ) and a reverse Cuthill–McKee order of the rest, whose bandwidths
+Jacobians at two random states under an end force and displacement control at once, so that
+the chain term and the end constraint's row and column are in it), its
+border (the unknowns whose rows couple more than a few others, taken greedily: the frame
+angles α_c of the chain term and the multiplier μ) and a reverse Cuthill–McKee order of the rest, whose bandwidths
 it measures; of the borders of :data:`DEGREE_LIMITS` it keeps the cheapest
 (:func:`solve_cost`). The result enters :class:`~.tables.SystemData` as ``solve_order`` (the
 inner unknowns in band order, then the border) and ``solve_band`` (n_inner, kl, ku); both
@@ -33,6 +33,7 @@ __all__ = [
     "DEGREE_LIMITS",
     "MIN_GAIN",
     "MIN_UNKNOWNS",
+    "PATTERN_LOAD",
     "SOLVE_ENV",
     "jacobian_pattern",
     "solve_cost",
@@ -47,14 +48,20 @@ MIN_UNKNOWNS = 100
 #: The border takes unknowns while one couples more than this many of the others; each limit
 #: is tried, and the cheapest arrangement (:func:`solve_cost`) kept.
 DEGREE_LIMITS = (6, 8, 10, 12, 16, 20, 24, 32)
+#: (F [N], u [mm], control) of :func:`jacobian_pattern`: an end force and, with the control
+#: half-way (a value no solve uses), the displacement constraint's row and column too, so that
+#: one evaluation carries the terms of both loads (the force's curvature of the load point,
+#: μ·control − F ≠ 0 at μ ∈ (0.5, 1)).
+PATTERN_LOAD = (1.0, 0.5, 0.5)
 #: The structure is used only where its flops are at most 1/this of dense LU's (2n³/3).
 MIN_GAIN = 4.0
 
 
 def jacobian_pattern(data: SystemData, seed: int = 0) -> sp.csr_matrix:
-    """Boolean sparse (n_z, n_z): where ∂r/∂z can be non-zero, symmetrised (the union of the
-    Jacobians at two random states, each under an end force and under displacement
-    control)."""
+    """Boolean sparse (n_z, n_z): where ∂r/∂z can be non-zero, symmetrised: the union of the
+    Jacobians at two random states under :data:`PATTERN_LOAD`, an end force and displacement
+    control at once (the union of the Jacobians under each load alone, but for entries of
+    rounding: terms of the chain that cancel to 1e-20 … 1e-16 of the largest)."""
     n_q, n_g, n_c = (int(v) for v in data.sizes)
     n_z = n_q + n_g + n_c + 1
     rng = np.random.default_rng(seed)
@@ -62,12 +69,11 @@ def jacobian_pattern(data: SystemData, seed: int = 0) -> sp.csr_matrix:
     # one array, zeroed between the evaluations: a fresh one each would fault its pages in
     # again (NumPy's zeros are allocated as they are written)
     jac = np.zeros((n_z, n_z))
-    for k in range(4):
-        if k % 2 == 0:
-            z = np.concatenate([rng.uniform(-0.1, 0.1, n_q), rng.uniform(0.5, 1.0, n_g + n_c + 1)])
+    load = np.array(PATTERN_LOAD)
+    for k in range(2):
+        z = np.concatenate([rng.uniform(-0.1, 0.1, n_q), rng.uniform(0.5, 1.0, n_g + n_c + 1)])
         if k:
             jac[:, :] = 0.0
-        load = np.array((1.0, 0.0, 0.0) if k % 2 == 0 else (0.0, 0.5, 1.0))
         pattern |= assemble.evaluate_into(data, z, load, True, jac)[1] != 0.0
     i, j = np.nonzero(pattern)
     i, j = np.concatenate([i, j]), np.concatenate([j, i])  # symmetrised
