@@ -192,3 +192,41 @@ def test_respond_writes_its_files_without_xarray(tmp_path: Path) -> None:
     with xr.open_dataset(tmp_path / "response.nc", engine="h5netcdf") as ds:
         assert ds.attrs["kind"] == "path" and ds.sizes["step"] > 10
         assert "[geometry]" in ds.attrs["config"]
+
+
+def test_a_stable_sweep_says_where_and_why_its_steps_failed(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """A sweep whose every step failed exits 1 with an error line naming the first failed
+    step's U and the solver's reason (a one-module tube without base fold is contact-locked
+    under tension: nothing can be pulled); one that went on past a failed step warns with the
+    same, and exits 0."""
+    import biplan
+    from biplan.analysis.response import quasistatic
+    from biplan.io.config import dump_config
+
+    locked = tmp_path / "one_module.toml"
+    locked.write_text(dump_config(biplan.designs.fully_bistable(n_modules=1)), encoding="utf-8")
+    args = ["respond", str(locked), "--control", "displacement", "--stop", "0.5"]
+    result = runner.invoke(app, [*args, "--step", "0.25", "--out", str(tmp_path / "a")])
+    assert result.exit_code == 1, result.output
+    assert "2 of 2 steps failed; the first at U = 0.25 mm: " in result.output
+    assert "error: the response ended short of --stop" in result.output
+    assert "after" in result.output and "‖r‖∞" in result.output  # the solver's own message
+
+    advance = quasistatic._advance
+
+    def one_fails(model, solver, current, target, select_stable, depth=0):  # type: ignore[no-untyped-def]
+        if target == 0.5 and depth == 0:  # a real failed solve: one Newton step, no retry
+            one_step = biplan.Newton(max_steps=1, contact_restart=False)
+            load = biplan.Load.of_displacement(target)
+            return biplan.solve_equilibrium(model, one_step, current, load), None, False
+        return advance(model, solver, current, target, select_stable, depth)
+
+    monkeypatch.setattr(quasistatic, "_advance", one_fails)
+    args = ["respond", str(CONFIG), "--control", "displacement", "--stop", "1.0"]
+    result = runner.invoke(app, [*args, "--step", "0.25", "--out", str(tmp_path / "b")])
+    assert result.exit_code == 0, result.output
+    assert "warning: 1 of 4 steps failed; the first at U = 0.5 mm: maximum number" in (
+        result.output
+    )

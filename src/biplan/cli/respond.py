@@ -10,7 +10,9 @@ for 2 s), then holds for ``--hold`` seconds. Writes into DIR ``response.nc`` and
 ``response.csv`` (:func:`biplan.io.response_files.save_response`) and ``response.png``
 (:func:`biplan.plot.response_figures.response_figure`), and prints the summary, whose
 phase-1 peak force is the located first loss of stability under force control. A stable run
-that ends short of ``--stop`` writes its files and exits with status 1, saying why.
+that ends short of ``--stop`` (a sweep: every step failed) writes its files and exits with
+status 1, saying why; a sweep that went on past failed steps warns, naming the first one's U
+and the solver's reason.
 
 Units: force N, displacement mm, pressure **kPa** on the command line and in the files and
 figures (MPa = N/mm² in the library).
@@ -172,13 +174,18 @@ def respond(
     note = bifurcation_note(run.result)
     if note and method is Method.ARCLENGTH:
         report.print(f"[yellow]note:[/] {note}")
+    errors = Console(stderr=True, highlight=False)
     if run.short:
-        if not sweep:  # a sweep's headline counts its failed steps
-            Console(stderr=True, highlight=False).print(
-                f"[red]error:[/] the response ended short of --stop: {run.message}",
-                soft_wrap=True,
-            )
+        errors.print(
+            f"[red]error:[/] the response ended short of --stop: {run.message}", soft_wrap=True
+        )
         raise typer.Exit(EXIT_SHORT)
+    if run.failed_steps:  # a sweep that went on past failed steps
+        errors.print(
+            f"[yellow]warning:[/] {run.message}. The failed steps' rows hold NaN and their "
+            "solver status.",
+            soft_wrap=True,
+        )
 
 
 def _check_quasi_static(

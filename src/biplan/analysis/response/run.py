@@ -87,10 +87,15 @@ class Response:
     @property
     def message(self) -> str:
         """How the response ended: the path's or trajectory's message; for a sweep, its
-        failed steps."""
-        if isinstance(self.result, QuasiStaticPath):
-            return f"{self.failed_steps} of {self.result.n_steps} steps failed"
-        return self.result.message
+        failed steps and where and why the first failed (the solver's message)."""
+        r = self.result
+        if isinstance(r, QuasiStaticPath):
+            text = f"{self.failed_steps} of {r.n_steps} steps failed"
+            for u, sol in zip(r.displacement, r.solutions, strict=True):
+                if not sol.converged:
+                    return f"{text}; the first at U = {u:g} mm: {sol.message}"
+            return text
+        return r.message
 
     @property
     def short(self) -> bool:

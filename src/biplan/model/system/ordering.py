@@ -3,9 +3,9 @@
 :func:`solve_layout` finds, once per tube layout, the structure that
 :mod:`biplan.solvers.bordered` exploits: the structural pattern of ∂r/∂z (the union of the
 Jacobians at two random states under an end force and displacement control at once, so that
-the chain term and the end constraint's row and column are in it), its
-border (the unknowns whose rows couple more than a few others, taken greedily: the frame
-angles α_c of the chain term and the multiplier μ) and a reverse Cuthill–McKee order of the rest, whose bandwidths
+the chain term and the end constraint's row and column are in it), its border (the unknowns
+whose rows couple more than a few others, taken greedily: the frame angles α_c of the chain
+term and the multiplier μ) and a reverse Cuthill–McKee order of the rest, whose bandwidths
 it measures; of the borders of :data:`DEGREE_LIMITS` it keeps the cheapest
 (:func:`solve_cost`). The result enters :class:`~.tables.SystemData` as ``solve_order`` (the
 inner unknowns in band order, then the border) and ``solve_band`` (n_inner, kl, ku); both
