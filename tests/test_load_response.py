@@ -165,3 +165,47 @@ def test_readme_reports_the_located_peak() -> None:
     assert quoted is not None
     peak = first_snap(biplan.Model(_tube()))
     assert peak is not None and float(quoted[1]) == pytest.approx(peak.force, abs=5e-5)
+
+
+def test_a_response_stalled_against_closed_folds_says_so() -> None:
+    """A tube the repo does not ship (three modules, point-mirrored, loaded at the seam) is
+    pressed shut after its snap: the stable response stalls at 2.23 N with its contacts
+    carrying 0.95 N, and its message says that the load goes into closed folds; with ten
+    times the contact compliance the same response ends with FULL_CONTACT. A path that
+    completes carries no such sentence, and its contacts almost nothing."""
+    from biplan.laws.linear import LinearLaw
+    from biplan.laws.trilinear import TrilinearLaw
+    from biplan.options import ChainAttachment, EndpointDefinition, LoadPoint, MirrorConvention
+    from biplan.solvers.path_results import PRESSED_SHUT_SHARE
+
+    options = biplan.ModelOptions(
+        mirror=MirrorConvention.POINT,
+        chain_attachment=ChainAttachment.EDGE_FIT,
+        endpoint=EndpointDefinition.SEAM_NODE,
+        load_point=LoadPoint.SEAM,
+    )
+    tube = Tube.uniform(
+        radius=1.9732945962148376,
+        pitch=3.558060087555341,
+        helical_angle=58.86110658553659,
+        n_modules=3,
+        helical=LinearLaw(1.29668381809041),
+        circular=TrilinearLaw(
+            (0.8977041817548992, -0.19948981816775538, 0.598469454503266), (0.2, 1.3)
+        ),
+        options=options,
+    )
+    stalled = load_response(biplan.Model(tube), biplan.Control.force(2.5))
+    assert stalled.status is PathStatus.STALLED
+    reaction, force = stalled.contact_share()
+    assert 2.2 < force < 2.3 and reaction > 0.4 * force
+    assert f"contacts carry up to {reaction:.3g} N" in stalled.message
+    assert "the tube is pressed shut" in stalled.message
+    compliant = tube.with_options(contact_compliance=1e-5)
+    shut = load_response(biplan.Model(compliant), biplan.Control.force(2.5))
+    assert shut.status is PathStatus.FULL_CONTACT
+    assert shut.force[-1] == pytest.approx(force, abs=0.05)
+    done = load_response(biplan.Model(_tube()), biplan.Control.force(2.5))
+    reaction, force = done.contact_share()
+    assert done.completed and reaction < 0.01 * PRESSED_SHUT_SHARE * force
+    assert "closed folds" not in done.message

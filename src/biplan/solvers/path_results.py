@@ -21,7 +21,22 @@ from biplan.solvers.control import Control
 from biplan.solvers.observation import Observation
 from biplan.solvers.results import OBSERVABLES, LabelledResult, display_units, observables
 
-__all__ = ["Critical", "EquilibriumPath", "Event", "PathStats", "PathStatus", "Snap"]
+__all__ = [
+    "PRESSED_SHUT_SHARE",
+    "Critical",
+    "EquilibriumPath",
+    "Event",
+    "PathStats",
+    "PathStatus",
+    "Snap",
+]
+
+#: A stalled path whose last state's largest contact reaction is at least this share of the
+#: end force says that the load goes into closed folds (:attr:`EquilibriumPath.message`). At
+#: an equilibrium that deforms, the contacts carry a few hundredths of a newton at most (the
+#: semi-bistable and fully bistable designs up to 2 N: ≤ 0.02 N); where a path stalls against
+#: full contact they carry about half of it.
+PRESSED_SHUT_SHARE = 0.1
 
 
 class PathStatus(ResultStatus):
@@ -247,9 +262,28 @@ class EquilibriumPath(LabelledResult):
 
     @property
     def message(self) -> str:
+        """Why the path ended and the work it took; a stalled path adds
+        :meth:`contact_share` where the contacts of its last state carry a share of the end
+        force."""
         s = self.stats
         extra = f"; {s.n_steps} steps, {s.n_cutbacks} cut-backs" if s else ""
+        if self.status is PathStatus.STALLED and self.n_steps:
+            reaction, force = self.contact_share()
+            if reaction >= PRESSED_SHUT_SHARE * abs(force) and reaction > 0.0:
+                extra += (
+                    f". At its last state the contacts carry up to {reaction:.3g} N at an end "
+                    f"force of {force:.5g} N: the load goes into closed folds, not into "
+                    'deformation; the tube is pressed shut (docs/model.md, "Degenerate '
+                    'contacts")'
+                )
         return f"{self.status.message}{extra}"
+
+    def contact_share(self) -> tuple[float, float]:
+        """(largest contact multiplier λ_∂ [N], end force F [N]) at the last state."""
+        m = self.model
+        first = m.n_coordinates + m.n_guides
+        reactions = self.z[-1, first : first + m.n_contacts]
+        return float(reactions.max(initial=0.0)), float(self.force[-1])
 
     @property
     def limit_points(self) -> tuple[Event, ...]:
