@@ -533,6 +533,46 @@ def test_stability_map_mono_at_small_displacement_multi_at_large(design) -> None
     np.testing.assert_array_equal(whole["n_stable"].values, ds["n_stable"].values)
 
 
+def test_every_point_of_a_stability_map_has_a_stable_equilibrium() -> None:
+    """At a prescribed U the tube's least energy is a stable equilibrium, so no point may count
+    none. A six-module fully bistable tube the repo does not ship (one law per fold set, the
+    MINIMUM contact form): at U/l0 = 0.05 past the peak of its identical helical folds the
+    stable branch is far from every fixed seed, and no neighbour has one to continue (before,
+    both points counted no equilibrium at all). The start of last resort, the stable-branch
+    sweep from the reference, finds it; it is the sweep's own state."""
+    from biplan.analysis.maps.stability_seeds import reference_path_start
+    from biplan.analysis.response.quasistatic import displacement_sweep
+    from biplan.options import ContactForm, ModuleKind
+
+    options = biplan.ModelOptions(contact=ContactForm.MINIMUM, first_module=ModuleKind.MIRRORED)
+    tube = biplan.Tube.uniform(
+        radius=1.7931992197752542,
+        pitch=2.996012639039963,
+        helical_angle=61.447424071549165,
+        n_modules=6,
+        helical=TrilinearLaw((1.9492444476409119, -1.5593955581127297, 0.9746222238204559),
+                             (0.05, 0.3)),
+        circular=TrilinearLaw((0.8771600014384103, -0.3606102228135687, 0.5847733342922735),
+                              (0.3, 1.3)),
+        options=options,
+    )  # fmt: skip
+    grid = Grid.of(C=[1.25, 2.0], displacement=[0.05, 0.175])
+    ds = sweep(tube, grid, StabilityEvaluator(), chunk_size=4)
+    assert (ds["status"].values == 0).all()
+    assert (ds["n_stable"].values >= 1).all(), ds["n_stable"].values
+    # the state found at (C = 2, U/l0 = 0.05) is the sweep's, and stable
+    point = apply_values(tube, {"C": 2.0, "b": base_value(tube, "b")})
+    model = biplan.Model(point)
+    u = 0.05 * point.initial_length
+    z = reference_path_start(model, u)
+    sweep_end = displacement_sweep(model, np.array([u]) * np.linspace(0.05, 1.0, 20))
+    assert sweep_end.solutions[-1].converged
+    np.testing.assert_allclose(z, sweep_end.solutions[-1].z, atol=1e-9)
+    stable = ds["stable"].values[1, 0] == 1
+    q = ds["q"].values[1, 0][stable][:, : model.n_coordinates]
+    assert np.min(np.max(np.abs(q - z[: model.n_coordinates]), axis=1)) < 1e-4
+
+
 def test_contact_locked_one_fold_states_start_multistability_at_w_b(design) -> None:
     """A circular fold opened by U between w_b (its unloaded open opening, the law's hilltop)
     and w_s (its open well) pushes: the tube is in compression and the other folds are pressed

@@ -12,6 +12,9 @@ default C at b = 0.58) the distinct equilibria are searched for and classified:
    open folds of six). The 3 N_c − 2 patterns of earlier versions (all closed, shared by all,
    one per fold, the k lowest and the k highest folds; ``seeding = "patterns"``, used past
    ``max_subset_folds`` folds) found only the combinations next to the base or the free end.
+   A point still without a stable equilibrium after step 2 (at a prescribed U the least
+   energy is one) gets one more start: the state that the stable-branch sweep from the relaxed
+   reference reaches at its U (:func:`~biplan.analysis.maps.stability_seeds.reference_path_start`).
    By default these fixed seeds run only at points at most ``seed_spacing`` = 0.04 apart in
    U/l₀ along a row (every fourth point of a grid with ΔU/l₀ = 0.01; every point of a coarser
    grid), the first and the last.
@@ -59,7 +62,7 @@ from biplan.analysis.maps.stability_search import (
     StabilitySearch,
     same_equilibrium,
 )
-from biplan.analysis.maps.stability_seeds import pushing, seeds
+from biplan.analysis.maps.stability_seeds import pushing, reference_path_start, seeds
 from biplan.analysis.maps.stability_solve import CompiledTasks, solve_and_observe
 from biplan.model.assembly import Model
 from biplan.model.tube import Tube
@@ -200,6 +203,16 @@ class StabilityEvaluator:
             if rows:
                 solve(rows, z0, False)
 
+        def from_reference() -> None:
+            """A point still without a stable equilibrium (at a prescribed U the tube's
+            least energy is one): the state that the stable-branch sweep from the relaxed
+            reference reaches at its U, as one more start (past the peak of identical folds
+            in series the stable branch lies far from every fixed seed, and a row whose first
+            points have none has nothing to continue from)."""
+            empty = [j for j in range(len(models)) if not len(acc.stable(j))]
+            if empty:
+                solve(empty, [reference_path_start(models[j], u[j]) for j in empty], False)
+
         # the pressed seeds run at every point: contact-locked states live in windows
         # narrower than the seed spacing, and continuation from a state in tension does not
         # enter them (its closing contacts start without multipliers)
@@ -216,6 +229,7 @@ class StabilityEvaluator:
                                 z0.append(zs)
             if rows:
                 solve(rows, z0, True)
+            from_reference()
             return acc.collect()
         # march: forward through every row, then backward from the equilibria that the
         # forward pass did not reach from the point before (branches born in between)
@@ -247,6 +261,7 @@ class StabilityEvaluator:
                 solve(rows, z0, True)
         # a point left without any equilibrium gets the fixed seeds after all
         fixed_seeds([j for j in range(len(models)) if j not in seeded and not acc.any(j)])
+        from_reference()
         return acc.collect()
 
     def _seeded(self, disp: list[float], row: list[int]) -> list[int]:

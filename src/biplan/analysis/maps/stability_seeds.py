@@ -5,7 +5,8 @@
 one per subset of the circular folds (or the older fold patterns), each with the displacement
 shared equally by its open folds, and a *pressed* copy (contact multipliers :data:`PRESS` on
 the closed contacts) where the open folds push. :func:`pushing` evaluates the laws for that
-test.
+test. :func:`reference_path_start` is the start of last resort: the state that the
+stable-branch sweep from the relaxed reference reaches.
 """
 
 from __future__ import annotations
@@ -16,15 +17,19 @@ from typing import Any
 
 import numpy as np
 
+from biplan.analysis.response.quasistatic import displacement_sweep
 from biplan.model.assembly import Model
 from biplan.model.system import assemble
 from biplan.model.tube import Tube
+from biplan.solvers.newton import relaxed_reference
 from biplan.solvers.observation import ACTIVE_GAP
 
 __all__ = [
     "PRESS",
+    "REFERENCE_STEP",
     "Seeding",
     "pushing",
+    "reference_path_start",
     "seeds",
 ]
 
@@ -133,3 +138,25 @@ def seeds(
             pressed.append(zp)
     out = pressed if pressed_only else plain + pressed
     return np.asarray(out).reshape(-1, n_z)
+
+
+#: Largest step [mm] of :func:`reference_path_start`'s sweep (that of ``biplan respond
+#: --control displacement``).
+REFERENCE_STEP = 0.05
+
+
+def reference_path_start(model: Model, u: float) -> np.ndarray:
+    """The packed state (n_z,) that the stable-branch sweep from the relaxed reference reaches
+    at ``u`` [mm] (:func:`~biplan.analysis.response.quasistatic.displacement_sweep`, steps of
+    at most :data:`REFERENCE_STEP`; its last converged state where it failed, the reference
+    at u = 0): a start for a point where no fixed seed's Newton bridges the jump from the
+    unloaded tube to ``u``. That sweep leaves the symmetric state of identical folds in
+    series for the stable branch past their peak, which neither a fixed seed nor the
+    arclength path reaches."""
+    ref = relaxed_reference(model)
+    if u == 0.0:
+        return np.asarray(ref.z, dtype=float)
+    n = max(1, int(np.ceil(abs(u) / REFERENCE_STEP)))
+    sweep = displacement_sweep(model, np.linspace(u / n, u, n), start=ref)
+    done = [sol for sol in sweep.solutions if sol.converged]
+    return np.asarray(done[-1].z if done else ref.z, dtype=float)
