@@ -655,6 +655,7 @@ def test_map_with_failed_points_says_how_many(
     assert info.value.code == 0
     err = capsys.readouterr().err
     assert "warning: 1 of 2 points failed" in err  # on the terminal, even with --quiet
+    assert "b = 0.55, C = 1: not_converged" in " ".join(err.split())  # where and why
 
 
 # --- 6. resume ------------------------------------------------------------------------------

@@ -198,7 +198,12 @@ def _run(config: Path, grid: Grid, ev: Evaluator, out: Path, execution: Executio
             f"{run.path})"
         )
     if run.n_failed:
-        _warn(f"{run.n_failed} of {run.n_points} points failed (status ≠ 0 in {where})")
+        first = run.failed_points()
+        more = f" (the first {len(first)})" if run.n_failed > len(first) else ""
+        _warn(
+            f"{run.n_failed} of {run.n_points} points failed (status ≠ 0 in {where}){more}: "
+            f"{escape('; '.join(first))}"
+        )
     reused = f", {run.reused} of {run.n_chunks} chunks reused" if resume else ""
     Console(quiet=quiet, highlight=False).print(
         f"{run.n_points} points ({run.n_failed} failed{reused}) in {run.seconds:.1f} s; "

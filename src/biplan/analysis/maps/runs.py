@@ -15,6 +15,8 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import TYPE_CHECKING, Any, Protocol
 
+import numpy as np
+
 from biplan.analysis.maps import sweeps
 
 if TYPE_CHECKING:
@@ -70,6 +72,21 @@ class MapRun:
     def all_failed(self) -> bool:
         """Whether every point of the map failed."""
         return self.n_failed == self.n_points
+
+    def failed_points(self, limit: int = 3) -> list[str]:
+        """The first ``limit`` failed points, each as its grid values and its status
+        (``"C = 0.5, displacement = 0.05: not_converged"``; the names of ``STATUS``)."""
+        status = self.dataset["status"]
+        names = {v: k for k, v in sweeps.STATUS.items()}
+        out = []
+        for index in np.argwhere(status.values != 0)[:limit]:
+            where = ", ".join(
+                f"{dim} = {self.dataset[dim].values[i]:g}"
+                for dim, i in zip(status.dims, index, strict=True)
+            )
+            code = int(status.values[tuple(index)])
+            out.append(f"{where}: {names.get(code, code)}")
+        return out
 
 
 @dataclass(frozen=True)
