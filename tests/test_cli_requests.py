@@ -524,7 +524,18 @@ def test_path_reads_the_catalogue_and_names_folds_as_the_files_do(
             graph.edges[u, v].update(forward_from=u, saddle_energy=9.0, mep_status="CONVERGED")
         return graph
 
+    def departures(graph, model, catalogue, steps):  # type: ignore[no-untyped-def]
+        found = {
+            ("2B", "2A"): (1.25, "found"),
+            ("2A", "0A"): (float("nan"), "no_loss_of_stability"),
+        }
+        for u, v in steps:
+            force, status = found[u, v]
+            graph.edges[u, v].update(departure_force=force, departure_status=status)
+        return graph
+
     monkeypatch.setattr(biplan.analysis.states.transitions, "annotate_barriers", barriers)
+    monkeypatch.setattr(biplan.analysis.states.transitions, "annotate_departures", departures)
     main_exit = None
     try:
         main([str(a) for a in ["path", FULLY, "2b", "0a", "--states", file, "-q"]])
@@ -535,6 +546,10 @@ def test_path_reads_the_catalogue_and_names_folds_as_the_files_do(
     assert "2B → 2A → 0A" in out
     assert "2B → 2A: fold helical 1, barrier 8.5 N·mm" in out
     assert "2A → 0A: fold circular 3|4, barrier 9 N·mm" in out
+    flat = " ".join(out.split())
+    assert "(CONVERGED), departure force 1.25 N" in flat  # found on the ramp
+    assert "no departure force: no loss of stability up to the end of the ramp" in flat
+    assert "nan" not in flat
     names = biplan.Model(biplan.load_config(FULLY)).layout.fold_names
     assert {"helical 1", "circular 3|4"} <= set(names)  # the names of response.nc's fold axis
 

@@ -3,7 +3,8 @@
 Prints the pathway (fewest fold switches, or least barrier with ``--weight barrier``; every
 shortest one with ``--all``) and each step's barrier and fold, named as in the result files
 (``helical 2``, ``circular 1|2``: modules count from 1 at the base), with the departure force
-of the steps whose barrier it computed from their start. START and TARGET are state names:
+of each step whose barrier it computed from its start (or why there is none: no loss of
+stability up to the end of the force ramp). START and TARGET are state names:
 the hexadecimal label (any case, exactly the digits of the tube's bistable folds, e.g. ``2a``
 for seven folds), with the ``.2``, ``.3``… suffix of a repeated label; they are checked against
 the tube before anything is enumerated (:func:`~biplan.analysis.states.labels.state_name`).
@@ -57,10 +58,12 @@ def path(
     import biplan
     from biplan.analysis.states.labels import state_name
     from biplan.analysis.states.transitions import (
+        annotate_departures,
         pathway,
         pathway_steps,
         transition_graph,
         unannotated_edges,
+        without_departure,
     )
     from biplan.cli.states import annotate_with_status, enumerate_with_progress
     from biplan.io.catalogue import load_catalogue, read_catalogue
@@ -90,12 +93,16 @@ def path(
     missing = unannotated_edges(graph, paths)
     if missing:
         annotate_with_status(model, catalogue, graph, quiet, edges=missing, departure=True)
+    steps = without_departure(graph, paths)  # barriers of the whole graph, departures not yet
+    if steps:
+        with Console(stderr=True, quiet=quiet).status(f"computing {len(steps)} departures…"):
+            annotate_departures(graph, model, catalogue, steps)
     console = Console(highlight=False)
     for p in paths:
         console.print(" → ".join(p))
         for step in pathway_steps(graph, p):
-            force = step.departure_force
-            force_text = "" if force is None else f", departure force {force:.4g} N"
+            departure = step.departure_text()
+            force_text = f", {departure}" if departure else ""
             console.print(
                 f"  {step.start} → {step.end}: fold {step.fold_name}, barrier "
                 f"{step.barrier:.4g} N·mm ({step.mep_status}){force_text}"

@@ -24,19 +24,21 @@ import numpy as np
 from biplan._errors import ConfigError
 from biplan.analysis.states.barriers import NudgedElasticBand, edge_barriers
 from biplan.analysis.states.catalogue import StateCatalogue
-from biplan.analysis.states.departure import departure_force
+from biplan.analysis.states.departure import DepartureStatus, departure_force
 from biplan.model.assembly import Model
 
 __all__ = [
     "PAPER_PATHWAYS",
     "PathwayStep",
     "annotate_barriers",
+    "annotate_departures",
     "barrier_weight",
     "paper_pathways",
     "pathway",
     "pathway_steps",
     "transition_graph",
     "unannotated_edges",
+    "without_departure",
 ]
 
 #: The paper's pathways (SI transition section): p1 2A → 66, p2 2A → 1B, p3 66 → 00.
@@ -190,6 +192,8 @@ class PathwayStep:
     departure_force : float or None
         End force [N] at which ``start`` loses stability on a force ramp (NaN when it does
         not); None when it was not computed from ``start``.
+    departure : DepartureStatus or None
+        How that ramp ended (``FOUND``: at ``departure_force``); None when not computed.
     """
 
     start: str
@@ -198,6 +202,16 @@ class PathwayStep:
     barrier: float
     mep_status: str
     departure_force: float | None
+    departure: DepartureStatus | None = None
+
+    def departure_text(self) -> str:
+        """The departure in words (empty when it was not computed): its force, or why there
+        is none."""
+        if self.departure_force is None:
+            return ""
+        if self.departure is None or self.departure is DepartureStatus.FOUND:
+            return f"departure force {self.departure_force:.4g} N"
+        return f"no departure force: {self.departure.message}"
 
 
 def pathway_steps(graph: nx.Graph, path: Sequence[str]) -> list[PathwayStep]:
@@ -206,6 +220,8 @@ def pathway_steps(graph: nx.Graph, path: Sequence[str]) -> list[PathwayStep]:
     steps = []
     for u, v in itertools.pairwise(path):
         d = graph.edges[u, v]
+        ours = d.get("forward_from") == u and "departure_force" in d
+        status = d.get("departure_status")
         steps.append(
             PathwayStep(
                 start=u,
@@ -213,12 +229,39 @@ def pathway_steps(graph: nx.Graph, path: Sequence[str]) -> list[PathwayStep]:
                 fold_name=d["fold_name"],
                 barrier=d.get("saddle_energy", math.nan) - graph.nodes[u]["energy"],
                 mep_status=d.get("mep_status", "?"),
-                departure_force=d.get("departure_force", math.nan)
-                if d.get("forward_from") == u
-                else None,
+                departure_force=d["departure_force"] if ours else None,
+                departure=DepartureStatus(status) if ours and status is not None else None,
             )
         )
     return steps
+
+
+def without_departure(graph: nx.Graph, paths: Iterable[Sequence[str]]) -> list[tuple[str, str]]:
+    """The steps (start, end) of ``paths`` whose edge has its barrier from ``start`` but no
+    departure force yet (:func:`annotate_departures`), each once, in the order of the paths."""
+    steps = dict.fromkeys(e for p in paths for e in itertools.pairwise(p))
+    return [
+        (u, v)
+        for u, v in steps
+        if graph.edges[u, v].get("forward_from") == u and "departure_force" not in graph.edges[u, v]
+    ]
+
+
+def annotate_departures(
+    graph: nx.Graph, model: Model, catalogue: StateCatalogue, steps: Iterable[tuple[str, str]]
+) -> nx.Graph:
+    """Store the departure of each step (start, end) on its edge (in place):
+    ``departure_force`` [N] (the end force at which ``start`` loses stability on a force ramp
+    toward ``end``, NaN when it does not), ``departure_status`` (a
+    :class:`~biplan.analysis.states.departure.DepartureStatus` value) and
+    ``departure_lands``."""
+    for u, v in steps:
+        dep = departure_force(model, catalogue.state(u).z, catalogue.state(v).z)
+        data = graph.edges[u, v]
+        data["departure_force"] = float(dep.force)
+        data["departure_status"] = dep.status.value
+        data["departure_lands"] = bool(dep.lands_in_target)
+    return graph
 
 
 def unannotated_edges(graph: nx.Graph, paths: Iterable[Sequence[str]]) -> list[tuple[str, str]]:
@@ -242,7 +285,8 @@ def annotate_barriers(
     [N·mm] from the edge's first/second node (``forward_from`` names the first),
     ``mep_status``, ``n_negative`` (negative reduced-Hessian eigenvalues at the saddle) and,
     with ``departure=True``, ``departure_force`` [N] (the end force at which ``forward_from``
-    loses stability on a force ramp, NaN when it does not) and ``departure_lands``.
+    loses stability on a force ramp, NaN when it does not), ``departure_status`` and
+    ``departure_lands`` (:func:`annotate_departures`).
 
     Parameters
     ----------
@@ -262,7 +306,5 @@ def annotate_barriers(
             n_negative=int(mep.n_negative),
         )
         if departure:
-            dep = departure_force(model, catalogue.state(u).z, catalogue.state(v).z)
-            data["departure_force"] = float(dep.force)
-            data["departure_lands"] = bool(dep.lands_in_target)
+            annotate_departures(graph, model, catalogue, [(u, v)])
     return graph
