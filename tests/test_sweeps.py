@@ -105,6 +105,14 @@ def test_bad_grid_raises_before_solving(design) -> None:
         sweep(design, Grid.of(C=[1.0]), ev, chunk_size=0)
     with pytest.raises(ConfigError, match="distinct"):
         Grid((parse_axis("C", "1,2"), parse_axis("C", "3")))
+    # a tube without circular folds (one module, no base fold): C and more modules have no
+    # circular law to refer to (an IndexError before)
+    bare = biplan.designs.fully_bistable(n_modules=1)
+    assert bare.circular_laws == ()
+    with pytest.raises(ConfigError, match=r"C = 1\.0: must be a grid axis of a tube with a circ"):
+        sweep(bare, Grid.of(C=[1.0]), ev, chunk_size=BATCH)
+    with pytest.raises(ConfigError, match="n_modules = 2: must be 1 for this tube"):
+        apply_values(bare, {"n_modules": 2})
 
 
 def test_apply_values_sets_b_and_c_as_the_paper(design) -> None:

@@ -225,6 +225,11 @@ def apply_values(tube: Tube, values: Mapping[str, float]) -> Tube:
     out = tube
     if n != tube.n_modules:
         nc = n - 1 + int(tube.base_fold)
+        if nc and not tube.circular_laws:
+            raise ConfigError(
+                "n_modules", values["n_modules"],
+                "1 for this tube: it has no circular fold whose law the added ones would take",
+            )  # fmt: skip
         out = replace(
             out, n_modules=n, helical_laws=(tube.helical_laws[0],) * n,
             circular_laws=(tube.circular_laws[0],) * nc,
@@ -249,6 +254,11 @@ def apply_values(tube: Tube, values: Mapping[str, float]) -> Tube:
         c = check_finite("C", values["C"])
         if c <= 0:
             raise ConfigError("C", c, "> 0")
+        if not out.circular_laws:
+            raise ConfigError(
+                "C", c, "a grid axis of a tube with a circular fold (C sets the helical laws "
+                "against the base-most circular law; this tube has none)",
+            )  # fmt: skip
         k_target = c * initial_stiffness(out.circular_laws[0])
         laws = tuple(
             _scaled(law, k_target / initial_stiffness(out.helical_laws[0]))
