@@ -175,5 +175,7 @@ def test_damping_probe_past_the_first_snap_is_halved():
     halved = rayleigh_at(model, ref, biplan.Load.of_force(0.8), 0.05)
     direct = rayleigh_at(model, ref, biplan.Load.of_force(0.4), 0.05)
     assert halved == direct > 0.0
-    with pytest.raises(biplan.ConfigError, match="probe load of the damping ratio"):
+    with pytest.raises(biplan.ConfigError, match="probe load of the damping ratio") as err:
         rayleigh_at(model, ref, biplan.Load.of_force(0.0), 0.05)  # contacts lock every mode
+    assert "F = 0 N: none (every contact locked)" in str(err.value)
+    assert "damping ratio 0: undamped" in str(err.value)

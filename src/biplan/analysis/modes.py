@@ -133,10 +133,13 @@ def rayleigh_at(model: Model, start: Solution, probe: Load, damping_ratio: float
         try:
             return rayleigh_for_damping_ratio(natural_modes(model, state), damping_ratio)
         except ConfigError as err:
-            value = float(load.displacement if load.displacement_control else load.force)
-            tried.append(f"{value:.4g} ({err.value})")
+            if load.displacement_control:
+                tried.append(f"U = {float(load.displacement):.4g} mm: {err.value}")
+            else:
+                tried.append(f"F = {float(load.force):.4g} N: {err.value}")
     raise ConfigError(
         "probe load of the damping ratio",
-        ", ".join(tried),
-        "a load with a converged, stable state and a free mode on the start's branch",
+        "; ".join(tried),
+        "a load with a converged, stable state and a free mode on the start's branch (where "
+        "none has one, damping ratio 0: undamped)",
     )
