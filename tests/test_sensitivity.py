@@ -244,3 +244,21 @@ def test_limit_point_of_the_semi_bistable_design(model6):
     assert abs(limit.min_eigenvalue) < 1e-10
     assert 0.0 <= limit.force - snap.force < 1e-3 * snap.force
     assert limit.displacement > snap.displacement_before
+
+
+def test_the_default_set_leaves_out_min_eigenvalue_at_a_contact_locked_state() -> None:
+    """One fully bistable module without base fold is contact-locked under tension (no free
+    direction: λ_min has no derivative). The default observables leave λ_min out and say so;
+    asked for by name, it is refused. The other rows are those of the full request."""
+    model = biplan.Model(biplan.designs.fully_bistable(n_modules=1))
+    ref = biplan.relaxed_reference(model, throw=True)
+    state = biplan.solve_equilibrium(model, None, ref, biplan.Load.of_force(0.5))
+    assert state.converged and eigen_weights(model, state) is None
+    found = sensitivity(model, state)
+    assert Observable.MIN_EIGENVALUE not in found.observables
+    assert found.left_out == ("min_eigenvalue is left out at a contact-locked state (no H_r)",)
+    named = sensitivity(model, state, observables=found.observables)
+    assert named.left_out == ()
+    np.testing.assert_array_equal(named.derivatives, found.derivatives)
+    with pytest.raises(biplan.ConfigError, match="left out at a contact-locked state"):
+        sensitivity(model, state, observables=("u_z", "min_eigenvalue"))

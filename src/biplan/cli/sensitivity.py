@@ -174,4 +174,5 @@ def _summary(result: Sensitivity, out: Path) -> str:
             f"{obs.value} = {result.values[i]:.6g} {obs.unit}: most sensitive to "
             f"{result.parameters[j].name} (elasticity {el[i, j]:+.3g})"
         )
-    return "\n".join([*lines, f"wrote {out}/sensitivity.{{csv,png}}"])
+    notes = [f"note: {why}" for why in result.left_out]
+    return "\n".join([*lines, *notes, f"wrote {out}/sensitivity.{{csv,png}}"])

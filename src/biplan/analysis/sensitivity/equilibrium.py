@@ -242,7 +242,9 @@ def sensitivity(
         A converged equilibrium of ``model`` (force or displacement control).
     observables : tuple of Observable or str, optional
         Default: u_z, u_r, θ, energy, λ_min, the load-point displacement and, under
-        displacement control, the end force (the reaction −μ).
+        displacement control, the end force (the reaction −μ); λ_min is left out of the
+        default where it has no derivative (a contact-locked state, a repeated eigenvalue),
+        and ``Sensitivity.left_out`` says why.
     parameters : tuple of str, optional
         Names of :func:`~biplan.analysis.sensitivity.parameters.design_parameters` (default all).
     angle : AngleParameter
@@ -260,26 +262,30 @@ def sensitivity(
     ------
     ConfigError
         On a state that did not converge or is not of this model, an unknown observable or
-        parameter, λ_min asked of a contact-locked state (no free direction) or where it is a
-        repeated eigenvalue, or a singular KKT Jacobian.
+        parameter, λ_min asked for by name at a contact-locked state (no free direction) or
+        where it is a repeated eigenvalue, or a singular KKT Jacobian.
     """
     obs, pset, cols = request(model, state, observables, parameters, angle, per_fold)
     weights = None
+    left_out: tuple[str, ...] = ()
     if Observable.MIN_EIGENVALUE in obs:
         found = eigen_weights(model, state)
+        why = ""
         if found is None:
-            raise ConfigError(
-                "observables", "min_eigenvalue", "left out at a contact-locked state (no H_r)"
-            )
-        min_eig, gap = found[2], found[3]
-        if gap <= SIMPLE_GAP * max(abs(min_eig), 1.0):
-            raise ConfigError(
-                "observables", "min_eigenvalue",
-                f"left out where λ_min = {min_eig:.6g} is repeated (gap {gap:.2g}: no derivative)",
-            )  # fmt: skip
-        weights = found[:2]
+            why = "at a contact-locked state (no H_r)"
+        elif found[3] <= SIMPLE_GAP * max(abs(found[2]), 1.0):
+            why = f"where λ_min = {found[2]:.6g} is repeated (gap {found[3]:.2g}: no derivative)"
+        if why and observables is not None:  # asked for by name: refused
+            raise ConfigError("observables", "min_eigenvalue", f"left out {why}")
+        if why:  # the default set: said, not refused
+            obs = tuple(o for o in obs if o is not Observable.MIN_EIGENVALUE)
+            left_out = (f"min_eigenvalue is left out {why}",)
+        else:
+            assert found is not None
+            weights = found[:2]
     y, dy = total_derivatives(model, state, pset, weights, Mode(mode), obs)
-    return Sensitivity(obs, tuple(pset.parameters[j] for j in cols), y, dy[:, cols], state)
+    params = tuple(pset.parameters[j] for j in cols)
+    return Sensitivity(obs, params, y, dy[:, cols], state, left_out)
 
 
 def request(

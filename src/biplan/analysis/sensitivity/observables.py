@@ -94,6 +94,9 @@ class Sensitivity:
         Observable values y (n_obs,) [their units].
     derivatives : ndarray
         dy/dp (n_obs, n_par) [observable unit / parameter unit].
+    left_out : tuple of str
+        Why an observable of the default set is not among ``observables`` (λ_min of a
+        contact-locked state, or a repeated one: no derivative).
     """
 
     observables: tuple[Observable, ...]
@@ -101,6 +104,7 @@ class Sensitivity:
     values: np.ndarray
     derivatives: np.ndarray
     state: Solution | None = field(default=None, repr=False, compare=False)
+    left_out: tuple[str, ...] = ()
 
     @property
     def elasticities(self) -> np.ndarray:
