@@ -803,3 +803,20 @@ def test_states_resume_says_what_it_reuses_and_recomputes(
     assert "computing it again" in captured.err
     assert "0 of 1 chunks of seeds reused" in captured.out
     assert (out / "states.csv").read_text() == first
+
+
+def test_states_of_a_tube_without_bistable_folds_is_refused_naming_the_file(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    """A tube whose laws are all monostable has no states to search: one line names CONFIG as
+    typed and how many fold laws it has (before, the value shown was the tube's empty name)."""
+    import biplan
+    from biplan.io.config import dump_config
+    from biplan.laws.linear import LinearLaw
+
+    tube = biplan.Tube.uniform(radius=2.0, pitch=3.6, helical_angle=60.0, n_modules=3,
+                               helical=LinearLaw(1.3), circular=LinearLaw(0.9))  # fmt: skip
+    config = tmp_path / "linear.toml"
+    config.write_text(dump_config(tube), encoding="utf-8")
+    _refused(capsys, ["states", config, "--out", tmp_path / "s"], f"CONFIG = '{config}'",
+             "at least one bistable fold law", "its 6 fold laws are all monostable")  # fmt: skip

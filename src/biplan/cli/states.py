@@ -116,6 +116,7 @@ def states(
     them on a Dask cluster with ``--workers N`` (a local one) or ``--scheduler ADDRESS``."""
     import biplan
     from biplan.analysis.states.catalogue import Enumeration, Outcome
+    from biplan.analysis.states.labels import require_bistable_folds
     from biplan.analysis.states.seeding import Search
     from biplan.analysis.states.transitions import transition_graph
     from biplan.io.states import STATE_DATA_FILES, seed_store, write_state_files
@@ -138,7 +139,9 @@ def states(
             if used:
                 raise ConfigError(flag, "with --search neighbourhood", "an exhaustive search")
     output_directory(out, files=STATE_DATA_FILES + STATE_FIGURES)
-    model = biplan.Model(biplan.load_config(config))
+    tube = biplan.load_config(config)
+    require_bistable_folds(tube, "CONFIG", str(config))
+    model = biplan.Model(tube)
     with options_named({"search": "--search", "model": "CONFIG", "out": "--out"}):
         sink = seed_store(model, out, method, confirm=yes, resume=resume)
     if sink is not None and resume:

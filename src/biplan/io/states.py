@@ -25,11 +25,10 @@ import csv
 from pathlib import Path
 from typing import TYPE_CHECKING
 
-from biplan._errors import ConfigError
 from biplan.analysis.states import seeding
 from biplan.analysis.states.catalogue import CSV_COLUMNS, Enumeration
 from biplan.analysis.states.hierarchy import hierarchy
-from biplan.analysis.states.labels import bistable_folds
+from biplan.analysis.states.labels import require_bistable_folds
 from biplan.io.config import dump_config
 from biplan.io.graphml import write_graphml
 from biplan.io.netcdf import write_netcdf
@@ -84,9 +83,7 @@ def seed_store(
         (:func:`~biplan.analysis.states.seeding.check_size`); ``out``/``--resume``: a directory
         of another run (:class:`~biplan.io.sweepstore.ChunkStore`).
     """
-    n_folds = len(bistable_folds(model.tube))
-    if n_folds == 0:
-        raise ConfigError("config", model.tube.name, "a tube with at least one bistable fold law")
+    n_folds = len(require_bistable_folds(model.tube, "config"))
     seeding.check_size(n_folds, model.tube.n_modules, search, confirm)
     if search is not seeding.Search.EXHAUSTIVE:
         return None

@@ -25,6 +25,7 @@ __all__ = [
     "hamming",
     "label_to_bits",
     "physical_folds",
+    "require_bistable_folds",
     "state_name",
 ]
 
@@ -54,6 +55,23 @@ def bistable_folds(tube: Tube) -> tuple[FoldRef, ...]:
     """The folds whose law is bistable, free end first: the bits of a state label."""
     laws = {"helical": tube.helical_laws, "circular": tube.circular_laws}
     return tuple(f for f in physical_folds(tube) if laws[f.set][f.index].is_bistable)
+
+
+def require_bistable_folds(
+    tube: Tube, name: str = "model", value: str | None = None
+) -> tuple[FoldRef, ...]:
+    """:func:`bistable_folds`, or a ConfigError naming ``name`` and ``value`` (default the
+    tube's name) when there is none (a state search needs at least one)."""
+    folds = bistable_folds(tube)
+    if not folds:
+        n = len(tube.helical_laws) + len(tube.circular_laws)
+        raise ConfigError(
+            name, value or tube.name or "the tube",
+            f"a tube with at least one bistable fold law (its {n} fold laws are all "
+            "monostable; a trilinear law is bistable when k2 < 0 and its valley force "
+            "F2 = k1 w1 + k2 (w2 − w1) < 0)",
+        )  # fmt: skip
+    return folds
 
 
 def bits_to_label(bits: Sequence[int]) -> str:

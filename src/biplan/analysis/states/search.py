@@ -41,6 +41,7 @@ from biplan.analysis.states.labels import (
     bits_to_label,
     bits_to_labels,
     label_to_bits,
+    require_bistable_folds,
 )
 from biplan.analysis.states.seeding import Search, fold_vector_index, relax_seeds, seed_targets
 from biplan.model.assembly import Load, Model
@@ -100,9 +101,7 @@ def relax_state(
         The seed's relaxation failed, or reached an unstable equilibrium or other fold states.
     """
     settings = settings or Enumeration()
-    folds = bistable_folds(model.tube)
-    if not folds:
-        raise ConfigError("model", model.tube.name, "a tube with at least one bistable fold law")
+    folds = require_bistable_folds(model.tube)
     bits = label_to_bits(label, len(folds))
     target, mask = seed_targets(model, folds, np.array([bits], dtype=int))
     z, status, _ = relax_seeds(model, target, mask, settings)
@@ -164,9 +163,7 @@ def enumerate_states(
     settings = settings or Enumeration()
     if not isinstance(search, Search):
         raise ConfigError("search", search, " or ".join(repr(s.value) for s in Search))
-    folds = bistable_folds(model.tube)
-    if not folds:
-        raise ConfigError("model", model.tube.name, "a tube with at least one bistable fold law")
+    folds = require_bistable_folds(model.tube)
     seeding.check_size(len(folds), model.tube.n_modules, search, confirm)
     start = time.perf_counter()
     if search is Search.EXHAUSTIVE:
