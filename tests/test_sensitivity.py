@@ -249,7 +249,8 @@ def test_limit_point_of_the_semi_bistable_design(model6):
 def test_the_default_set_leaves_out_min_eigenvalue_at_a_contact_locked_state() -> None:
     """One fully bistable module without base fold is contact-locked under tension (no free
     direction: λ_min has no derivative). The default observables leave λ_min out and say so;
-    asked for by name, it is refused. The other rows are those of the full request."""
+    asked for by name, it is refused. The other rows are those of the full request; the end
+    displacement is zero up to rounding, so it has no elasticity (NaN, not ±772)."""
     model = biplan.Model(biplan.designs.fully_bistable(n_modules=1))
     ref = biplan.relaxed_reference(model, throw=True)
     state = biplan.solve_equilibrium(model, None, ref, biplan.Load.of_force(0.5))
@@ -257,6 +258,10 @@ def test_the_default_set_leaves_out_min_eigenvalue_at_a_contact_locked_state() -
     found = sensitivity(model, state)
     assert Observable.MIN_EIGENVALUE not in found.observables
     assert found.left_out == ("min_eigenvalue is left out at a contact-locked state (no H_r)",)
+    # the locked tube does not move: its end displacement is rounding, and has no elasticity
+    u_z = found.observables.index(Observable.U_Z)
+    assert abs(found.values[u_z]) < 1e-9 and np.isnan(found.elasticities[u_z]).all()
+    assert np.isfinite(found.derivatives[u_z]).all()  # dy/dp is still given
     named = sensitivity(model, state, observables=found.observables)
     assert named.left_out == ()
     np.testing.assert_array_equal(named.derivatives, found.derivatives)

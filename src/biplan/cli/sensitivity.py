@@ -167,9 +167,13 @@ def _figure(result: Sensitivity, file: Path) -> None:
 def _summary(result: Sensitivity, out: Path) -> str:
     """The largest elasticity of each observable, and the files."""
     lines = []
-    el = np.nan_to_num(result.elasticities, nan=0.0)
+    el = result.elasticities
     for i, obs in enumerate(result.observables):
-        j = int(np.argmax(np.abs(el[i])))
+        if np.isnan(el[i]).all():  # y is zero: no relative change
+            lines.append(f"{obs.value} = {result.values[i]:.6g} {obs.unit}: zero here, no "
+                         "elasticity (sensitivity.csv holds dy/dp)")  # fmt: skip
+            continue
+        j = int(np.nanargmax(np.abs(el[i])))
         lines.append(
             f"{obs.value} = {result.values[i]:.6g} {obs.unit}: most sensitive to "
             f"{result.parameters[j].name} (elasticity {el[i, j]:+.3g})"

@@ -19,6 +19,7 @@ from biplan.solvers.newton import Solution
 __all__ = [
     "ROWS",
     "SIMPLE_GAP",
+    "ZERO_VALUE",
     "Mode",
     "Observable",
     "Sensitivity",
@@ -82,6 +83,11 @@ class Mode(enum.Enum):
     DIRECT = "direct"  # one solve with J per parameter
 
 
+#: |y| at most this [mm, rad, N, N·mm] is zero for :attr:`Sensitivity.elasticities`: a
+#: nanometre, a nanoradian, a nanonewton, far below anything the model resolves.
+ZERO_VALUE = 1e-9
+
+
 @dataclass(frozen=True)
 class Sensitivity:
     """Derivatives of observables with respect to design parameters at one state.
@@ -108,11 +114,13 @@ class Sensitivity:
 
     @property
     def elasticities(self) -> np.ndarray:
-        """(p / y) dy/dp (n_obs, n_par), dimensionless; NaN where y = 0."""
+        """(p / y) dy/dp (n_obs, n_par), dimensionless; NaN where |y| ≤ :data:`ZERO_VALUE`
+        (no relative change of a quantity that is zero, or rounding: the end displacement of
+        a contact-locked tube, 4e-12 mm)."""
         p = np.asarray([par.value for par in self.parameters])
         with np.errstate(divide="ignore", invalid="ignore"):
             out = self.derivatives * p[None, :] / self.values[:, None]
-        return np.where(self.values[:, None] == 0.0, np.nan, out)
+        return np.where(np.abs(self.values[:, None]) <= ZERO_VALUE, np.nan, out)
 
     def derivative(self, observable: Observable | str, parameter: str) -> float:
         """dy/dp of one observable and one parameter (by name)."""
