@@ -27,6 +27,7 @@ from biplan.solvers.observation import ACTIVE_GAP
 __all__ = [
     "PRESS",
     "REFERENCE_STEP",
+    "REFERENCE_STEPS",
     "Seeding",
     "pushing",
     "reference_path_start",
@@ -141,22 +142,24 @@ def seeds(
 
 
 #: Largest step [mm] of :func:`reference_path_start`'s sweep (that of ``biplan respond
-#: --control displacement``).
+#: --control displacement``), and most steps (longer steps beyond 2 mm): a sweep whose steps
+#: all fail (a tube that cannot be pulled) costs up to a few seconds a point, not minutes.
 REFERENCE_STEP = 0.05
+REFERENCE_STEPS = 40
 
 
 def reference_path_start(model: Model, u: float) -> np.ndarray:
     """The packed state (n_z,) that the stable-branch sweep from the relaxed reference reaches
     at ``u`` [mm] (:func:`~biplan.analysis.response.quasistatic.displacement_sweep`, steps of
     at most :data:`REFERENCE_STEP`; its last converged state where it failed, the reference
-    at u = 0): a start for a point where no fixed seed's Newton bridges the jump from the
-    unloaded tube to ``u``. That sweep leaves the symmetric state of identical folds in
-    series for the stable branch past their peak, which neither a fixed seed nor the
-    arclength path reaches."""
+    at u = 0; at most :data:`REFERENCE_STEPS` steps): a start for a point where no fixed
+    seed's Newton bridges the jump from the unloaded tube to ``u``. That sweep leaves the
+    symmetric state of identical folds in series for the stable branch past their peak,
+    which neither a fixed seed nor the arclength path reaches."""
     ref = relaxed_reference(model)
     if u == 0.0:
         return np.asarray(ref.z, dtype=float)
-    n = max(1, int(np.ceil(abs(u) / REFERENCE_STEP)))
+    n = min(max(1, int(np.ceil(abs(u) / REFERENCE_STEP))), REFERENCE_STEPS)
     sweep = displacement_sweep(model, np.linspace(u / n, u, n), start=ref)
     done = [sol for sol in sweep.solutions if sol.converged]
     return np.asarray(done[-1].z if done else ref.z, dtype=float)
