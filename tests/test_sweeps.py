@@ -548,7 +548,7 @@ def test_every_point_of_a_stability_map_has_a_stable_equilibrium() -> None:
     stable branch is far from every fixed seed, and no neighbour has one to continue (before,
     both points counted no equilibrium at all). The start of last resort, the stable-branch
     sweep from the reference, finds it; it is the sweep's own state."""
-    from biplan.analysis.maps.stability_seeds import reference_path_start
+    from biplan.analysis.maps.stability_seeds import reference_path_starts
     from biplan.analysis.response.quasistatic import displacement_sweep
     from biplan.options import ContactForm, ModuleKind
 
@@ -572,10 +572,12 @@ def test_every_point_of_a_stability_map_has_a_stable_equilibrium() -> None:
     point = apply_values(tube, {"C": 2.0, "b": base_value(tube, "b")})
     model = biplan.Model(point)
     u = 0.05 * point.initial_length
-    z = reference_path_start(model, u)
+    z, half = reference_path_starts(model, [u, 0.5 * u])  # one sweep through both
     sweep_end = displacement_sweep(model, np.array([u]) * np.linspace(0.05, 1.0, 20))
     assert sweep_end.solutions[-1].converged
     np.testing.assert_allclose(z, sweep_end.solutions[-1].z, atol=1e-9)
+    halfway = displacement_sweep(model, np.array([u]) * np.linspace(0.025, 0.5, 10))
+    np.testing.assert_allclose(half, halfway.solutions[-1].z, atol=1e-9)
     stable = ds["stable"].values[1, 0] == 1
     q = ds["q"].values[1, 0][stable][:, : model.n_coordinates]
     assert np.min(np.max(np.abs(q - z[: model.n_coordinates]), axis=1)) < 1e-4

@@ -14,7 +14,8 @@ default C at b = 0.58) the distinct equilibria are searched for and classified:
    ``max_subset_folds`` folds) found only the combinations next to the base or the free end.
    A point still without a stable equilibrium after step 2 (at a prescribed U the least
    energy is one) gets one more start: the state that the stable-branch sweep from the relaxed
-   reference reaches at its U (:func:`~biplan.analysis.maps.stability_seeds.reference_path_start`).
+   reference reaches at its U, one sweep per row
+   (:func:`~biplan.analysis.maps.stability_seeds.reference_path_starts`).
    By default these fixed seeds run only at points at most ``seed_spacing`` = 0.04 apart in
    U/l₀ along a row (every fourth point of a grid with ΔU/l₀ = 0.01; every point of a coarser
    grid), the first and the last.
@@ -62,7 +63,7 @@ from biplan.analysis.maps.stability_search import (
     StabilitySearch,
     same_equilibrium,
 )
-from biplan.analysis.maps.stability_seeds import pushing, reference_path_start, seeds
+from biplan.analysis.maps.stability_seeds import pushing, reference_path_starts, seeds
 from biplan.analysis.maps.stability_solve import CompiledTasks, solve_and_observe
 from biplan.model.assembly import Model
 from biplan.model.tube import Tube
@@ -204,14 +205,19 @@ class StabilityEvaluator:
                 solve(rows, z0, False)
 
         def from_reference() -> None:
-            """A point still without a stable equilibrium (at a prescribed U the tube's
-            least energy is one): the state that the stable-branch sweep from the relaxed
-            reference reaches at its U, as one more start (past the peak of identical folds
-            in series the stable branch lies far from every fixed seed, and a row whose first
-            points have none has nothing to continue from)."""
-            empty = [j for j in range(len(models)) if not len(acc.stable(j))]
+            """The points still without a stable equilibrium (at a prescribed U the tube's
+            least energy is one): the states that the stable-branch sweep from the relaxed
+            reference reaches at their U, one sweep per row, as one more start each (past the
+            peak of identical folds in series the stable branch lies far from every fixed
+            seed, and a row whose first points have none has nothing to continue from)."""
+            empty, starts = [], []
+            for row in rows_of:
+                points = [j for j in row if not len(acc.stable(j))]
+                if points:
+                    empty += points
+                    starts += reference_path_starts(models[points[0]], [u[j] for j in points])
             if empty:
-                solve(empty, [reference_path_start(models[j], u[j]) for j in empty], False)
+                solve(empty, starts, False)
 
         # the pressed seeds run at every point: contact-locked states live in windows
         # narrower than the seed spacing, and continuation from a state in tension does not

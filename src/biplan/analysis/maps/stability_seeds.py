@@ -5,7 +5,7 @@
 one per subset of the circular folds (or the older fold patterns), each with the displacement
 shared equally by its open folds, and a *pressed* copy (contact multipliers :data:`PRESS` on
 the closed contacts) where the open folds push. :func:`pushing` evaluates the laws for that
-test. :func:`reference_path_start` is the start of last resort: the state that the
+test. :func:`reference_path_starts` is the start of last resort: the state that the
 stable-branch sweep from the relaxed reference reaches.
 """
 
@@ -13,6 +13,7 @@ from __future__ import annotations
 
 import enum
 import itertools
+from collections.abc import Sequence
 from typing import Any
 
 import numpy as np
@@ -30,7 +31,7 @@ __all__ = [
     "REFERENCE_STEPS",
     "Seeding",
     "pushing",
-    "reference_path_start",
+    "reference_path_starts",
     "seeds",
 ]
 
@@ -141,25 +142,35 @@ def seeds(
     return np.asarray(out).reshape(-1, n_z)
 
 
-#: Largest step [mm] of :func:`reference_path_start`'s sweep (that of ``biplan respond
+#: Largest step [mm] of :func:`reference_path_starts`'s sweep (that of ``biplan respond
 #: --control displacement``), and most steps (longer steps beyond 2 mm): a sweep whose steps
 #: all fail (a tube that cannot be pulled) costs up to a few seconds a point, not minutes.
 REFERENCE_STEP = 0.05
 REFERENCE_STEPS = 40
 
 
-def reference_path_start(model: Model, u: float) -> np.ndarray:
+def reference_path_starts(model: Model, us: Sequence[float]) -> list[np.ndarray]:
     """The packed state (n_z,) that the stable-branch sweep from the relaxed reference reaches
-    at ``u`` [mm] (:func:`~biplan.analysis.response.quasistatic.displacement_sweep`, steps of
-    at most :data:`REFERENCE_STEP`; its last converged state where it failed, the reference
-    at u = 0; at most :data:`REFERENCE_STEPS` steps): a start for a point where no fixed
-    seed's Newton bridges the jump from the unloaded tube to ``u``. That sweep leaves the
+    at each displacement of ``us`` [mm]: one
+    :func:`~biplan.analysis.response.quasistatic.displacement_sweep` per sign of u, through
+    every u asked for, in steps of at most :data:`REFERENCE_STEP` and at most
+    :data:`REFERENCE_STEPS` of them besides; at each u the last state it converged to (the
+    reference at u = 0, or before any step converged). A start for the points where no fixed
+    seed's Newton bridges the jump from the unloaded tube to u: that sweep leaves the
     symmetric state of identical folds in series for the stable branch past their peak,
     which neither a fixed seed nor the arclength path reaches."""
     ref = relaxed_reference(model)
-    if u == 0.0:
-        return np.asarray(ref.z, dtype=float)
-    n = min(max(1, int(np.ceil(abs(u) / REFERENCE_STEP))), REFERENCE_STEPS)
-    sweep = displacement_sweep(model, np.linspace(u / n, u, n), start=ref)
-    done = [sol for sol in sweep.solutions if sol.converged]
-    return np.asarray(done[-1].z if done else ref.z, dtype=float)
+    reached: dict[float, np.ndarray] = {}
+    for sign in (1.0, -1.0):
+        wanted = sorted({abs(float(u)) for u in us if u * sign > 0})
+        if not wanted:
+            continue
+        top = wanted[-1]
+        n = min(max(1, int(np.ceil(top / REFERENCE_STEP))), REFERENCE_STEPS)
+        targets = np.union1d(np.linspace(top / n, top, n), wanted) * sign
+        sweep = displacement_sweep(model, targets, start=ref)
+        last = ref.z
+        for target, sol in zip(targets, sweep.solutions, strict=True):
+            last = sol.z if sol.converged else last
+            reached[float(target)] = last
+    return [np.asarray(reached.get(float(u), ref.z), dtype=float) for u in us]

@@ -275,14 +275,13 @@ def sensitivity(
             why = "at a contact-locked state (no H_r)"
         elif found[3] <= SIMPLE_GAP * max(abs(found[2]), 1.0):
             why = f"where λ_min = {found[2]:.6g} is repeated (gap {found[3]:.2g}: no derivative)"
+        else:
+            weights = found[:2]
         if why and observables is not None:  # asked for by name: refused
             raise ConfigError("observables", "min_eigenvalue", f"left out {why}")
         if why:  # the default set: said, not refused
             obs = tuple(o for o in obs if o is not Observable.MIN_EIGENVALUE)
             left_out = (f"min_eigenvalue is left out {why}",)
-        else:
-            assert found is not None
-            weights = found[:2]
     y, dy = total_derivatives(model, state, pset, weights, Mode(mode), obs)
     params = tuple(pset.parameters[j] for j in cols)
     return Sensitivity(obs, params, y, dy[:, cols], state, left_out)

@@ -239,10 +239,9 @@ def pathway_steps(graph: nx.Graph, path: Sequence[str]) -> list[PathwayStep]:
 def without_departure(graph: nx.Graph, paths: Iterable[Sequence[str]]) -> list[tuple[str, str]]:
     """The steps (start, end) of ``paths`` whose edge has its barrier from ``start`` but no
     departure force yet (:func:`annotate_departures`), each once, in the order of the paths."""
-    steps = dict.fromkeys(e for p in paths for e in itertools.pairwise(p))
     return [
         (u, v)
-        for u, v in steps
+        for u, v in _steps_of(paths)
         if graph.edges[u, v].get("forward_from") == u and "departure_force" not in graph.edges[u, v]
     ]
 
@@ -267,8 +266,12 @@ def annotate_departures(
 def unannotated_edges(graph: nx.Graph, paths: Iterable[Sequence[str]]) -> list[tuple[str, str]]:
     """The steps (start, end) of ``paths`` whose edge carries no barrier yet, each once, in
     the order of the paths."""
-    steps = dict.fromkeys(e for p in paths for e in itertools.pairwise(p))
-    return [e for e in steps if "saddle_energy" not in graph.edges[e]]
+    return [e for e in _steps_of(paths) if "saddle_energy" not in graph.edges[e]]
+
+
+def _steps_of(paths: Iterable[Sequence[str]]) -> list[tuple[str, str]]:
+    """The steps (start, end) of ``paths``, each once, in the order of the paths."""
+    return list(dict.fromkeys(e for p in paths for e in itertools.pairwise(p)))
 
 
 def annotate_barriers(
